@@ -1,0 +1,8 @@
+# Installed by catkin_python_setup(); do not run directly.
+from setuptools import setup
+from catkin_pkg.python_setup import generate_distutils_setup
+
+setup(**generate_distutils_setup(
+    packages=["turtlebot_recon", "turtlebot_recon.sim", "turtlebot_recon.ros"],
+    package_dir={"": "src"},
+))

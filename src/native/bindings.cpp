@@ -1,0 +1,54 @@
+// turtlebot_recon._native: the one compiled module. Each area registers its functions here.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <Eigen/Core>
+#include <octomap/octomap.h>
+#include <ompl/config.h>
+
+#include "turtlebot_recon/rectangles.hpp"
+
+namespace py = pybind11;
+using namespace turtlebot_recon;
+
+namespace {
+
+py::array_t<std::int32_t> py_merge_rectangles(
+    py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> mask) {
+  if (mask.ndim() != 2) throw std::invalid_argument("merge_rectangles: mask must be 2-D");
+  const int rows = static_cast<int>(mask.shape(0)), cols = static_cast<int>(mask.shape(1));
+  std::vector<Rect> rects;
+  {
+    py::gil_scoped_release release;
+    rects = merge_rectangles(mask.data(), rows, cols);
+  }
+  py::array_t<std::int32_t> out({static_cast<py::ssize_t>(rects.size()), py::ssize_t{4}});
+  auto o = out.mutable_unchecked<2>();
+  for (size_t i = 0; i < rects.size(); ++i) {
+    o(i, 0) = rects[i].row;
+    o(i, 1) = rects[i].col;
+    o(i, 2) = rects[i].rows;
+    o(i, 3) = rects[i].cols;
+  }
+  return out;
+}
+
+py::dict build_info() {
+  py::dict d;
+  d["eigen"] = std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
+               "." + std::to_string(EIGEN_MINOR_VERSION);
+  d["octomap"] = octomap::OcTree(0.05).getTreeType();  // links liboctomap
+  d["ompl"] = std::to_string(OMPL_MAJOR_VERSION) + "." + std::to_string(OMPL_MINOR_VERSION) + "." +
+              std::to_string(OMPL_PATCH_VERSION);
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_native, m) {
+  m.doc() = "turtlebot_recon C++ core (Eigen, OctoMap, OMPL)";
+  m.def("merge_rectangles", &py_merge_rectangles, py::arg("mask"),
+        "Cover the non-zero cells of a 2-D uint8 mask with disjoint rectangles.\n"
+        "Returns an (N, 4) int32 array of (row, col, rows, cols), rows counted from the top.");
+  m.def("build_info", &build_info, "Versions of the C++ libraries the module was built against.");
+}

@@ -1,0 +1,1 @@
+"""Message <-> core conversions; the only core package that imports rospy."""
