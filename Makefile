@@ -4,7 +4,7 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := help
 TOP    := $(abspath .)
 VENV   := $(TOP)/.venv
-WS     := $(TOP)/build/ws
+WS     := $(shell tools/ws-path)
 APT_STAMP  := build/.apt-stamp
 VENV_STAMP := $(VENV)/.stamp
 ENV    := source $(TOP)/tools/env.sh &&
@@ -45,7 +45,7 @@ setup: $(VENV_STAMP)
 
 build: setup
 	@mkdir -p $(WS)/src
-	@[ -L $(WS)/src/turtlebot_recon ] || ln -s $(TOP) $(WS)/src/turtlebot_recon
+	@ln -sfn $(TOP) $(WS)/src/turtlebot_recon
 	@cd $(WS) && PATH=$(VENV)/bin:$$PATH catkin_make -DCMAKE_BUILD_TYPE=Release \
 	  -DPYTHON_EXECUTABLE=$(VENV)/bin/python -DPython3_EXECUTABLE=$(VENV)/bin/python \
 	  -DCATKIN_ENABLE_TESTING=OFF > $(TOP)/build/catkin_make.log 2>&1 \

@@ -4,5 +4,5 @@ export PATH="$_top/.venv/bin:$PATH"
 export ROS_HOME="${ROS_HOME:-$_top/build/ros_home}"
 export PYTHONDONTWRITEBYTECODE=1
 # shellcheck disable=SC1091
-source "$_top/build/ws/devel/setup.bash"
+source "$("$_top/tools/ws-path")/devel/setup.bash"
 unset _top

@@ -1,0 +1,108 @@
+"""Core data -> ROS messages (and back). The only core module besides scripts/ using rospy."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import rospy
+from geometry_msgs.msg import Quaternion, TransformStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
+
+from ..robot import CameraSpec, LidarSpec
+
+
+def stamp(t_s: float) -> rospy.Time:
+    return rospy.Time.from_sec(t_s)
+
+
+def yaw_to_quaternion(yaw: float) -> Quaternion:
+    return Quaternion(0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
+
+
+def quaternion_to_yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def transform(parent: str, child: str, t_s: float, x: float, y: float, z: float = 0.0,
+              yaw: float = 0.0, quat=None) -> TransformStamped:
+    m = TransformStamped()
+    m.header.stamp, m.header.frame_id, m.child_frame_id = stamp(t_s), parent, child
+    m.transform.translation.x, m.transform.translation.y, m.transform.translation.z = x, y, z
+    m.transform.rotation = Quaternion(*quat) if quat is not None else yaw_to_quaternion(yaw)
+    return m
+
+
+def laser_scan(ranges: np.ndarray, spec: LidarSpec, t_s: float) -> LaserScan:
+    m = LaserScan()
+    m.header.stamp, m.header.frame_id = stamp(t_s), spec.frame_id
+    m.angle_min, m.angle_max = spec.angle_min_rad, spec.angle_max_rad
+    m.angle_increment = spec.angle_increment_rad
+    m.scan_time = 1.0 / spec.rate_hz
+    m.time_increment = m.scan_time / spec.beams
+    m.range_min, m.range_max = spec.range_min_m, spec.range_max_m
+    m.ranges = ranges.astype(np.float32).tolist()
+    return m
+
+
+def odometry(t_s: float, frame: str, child: str, x: float, y: float, yaw: float,
+             v: float, w: float, pose_var=(1e-3, 1e-3, 1e-3), twist_var=(1e-3, 1e-3)) -> Odometry:
+    m = Odometry()
+    m.header.stamp, m.header.frame_id, m.child_frame_id = stamp(t_s), frame, child
+    m.pose.pose.position.x, m.pose.pose.position.y = x, y
+    m.pose.pose.orientation = yaw_to_quaternion(yaw)
+    cov = [0.0] * 36
+    cov[0], cov[7], cov[35] = pose_var
+    cov[14] = cov[21] = cov[28] = 1e6          # z, roll, pitch are not estimated
+    m.pose.covariance = cov
+    tcov = [0.0] * 36
+    tcov[0], tcov[35] = twist_var
+    tcov[7] = tcov[14] = tcov[21] = tcov[28] = 1e6
+    m.twist.covariance = tcov
+    m.twist.twist.linear.x, m.twist.twist.angular.z = v, w
+    return m
+
+
+def imu(t_s: float, frame: str, yaw: float, yaw_rate: float, accel_x: float, accel_y: float,
+        gyro_var: float) -> Imu:
+    m = Imu()
+    m.header.stamp, m.header.frame_id = stamp(t_s), frame
+    m.orientation = yaw_to_quaternion(yaw)
+    m.orientation_covariance = [1e6, 0, 0, 0, 1e6, 0, 0, 0, 1e-2]
+    m.angular_velocity.z = yaw_rate
+    m.angular_velocity_covariance = [gyro_var, 0, 0, 0, gyro_var, 0, 0, 0, gyro_var]
+    m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z = accel_x, accel_y, 9.80665
+    m.linear_acceleration_covariance = [1e-2, 0, 0, 0, 1e-2, 0, 0, 0, 1e-2]
+    return m
+
+
+def image_rgb8(rgb: np.ndarray, frame: str, t_s: float) -> Image:
+    """sensor_msgs/Image from an (H, W, 3) uint8 array, without cv_bridge."""
+    m = Image()
+    m.header.stamp, m.header.frame_id = stamp(t_s), frame
+    m.height, m.width = rgb.shape[:2]
+    m.encoding, m.is_bigendian, m.step = "rgb8", 0, 3 * rgb.shape[1]
+    m.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+    return m
+
+
+def image_to_array(m: Image) -> np.ndarray:
+    """(H, W, C) uint8 from rgb8 / bgr8 / mono8 images (RGB channel order out)."""
+    channels = {"rgb8": 3, "bgr8": 3, "mono8": 1, "rgba8": 4, "bgra8": 4}
+    if m.encoding not in channels:
+        raise ValueError(f"unsupported image encoding '{m.encoding}'")
+    c = channels[m.encoding]
+    a = np.frombuffer(m.data, np.uint8).reshape(m.height, m.step)[:, : m.width * c]
+    a = a.reshape(m.height, m.width, c)
+    return a[..., 2::-1] if m.encoding.startswith("bgr") else a[..., :3]
+
+
+def camera_info(spec: CameraSpec, k: np.ndarray, t_s: float) -> CameraInfo:
+    m = CameraInfo()
+    m.header.stamp, m.header.frame_id = stamp(t_s), spec.optical_frame_id
+    m.width, m.height = spec.width_px, spec.height_px
+    m.distortion_model, m.D = "plumb_bob", [0.0] * 5
+    m.K = k.reshape(-1).tolist()
+    m.R = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0]
+    m.P = [k[0, 0], 0.0, k[0, 2], 0.0, 0.0, k[1, 1], k[1, 2], 0.0, 0.0, 0.0, 1.0, 0.0]
+    return m

@@ -1,0 +1,362 @@
+"""The simulated TurtleBot: PyBullet (DIRECT mode) world, kinematic base, lidar, camera, IMU.
+
+One call to ``step()`` advances one physics step of ``1 / physics_hz`` seconds and returns the
+names of the sensors due at the new time; the caller (the ROS bridge, a test, a benchmark)
+reads those sensors. Nothing here blocks or knows about ROS.
+
+The base is kinematic: each step moves it by the twist the wheels produce; PyBullet's contact
+query rejects a move that would penetrate a wall, the wheels stall, and the contact counts as
+a collision (and a bumper press on robots that have bumpers).
+"""
+from __future__ import annotations
+
+import logging
+import math
+import pkgutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pybullet as pb
+from scipy.spatial.transform import Rotation
+
+from .. import _native
+from ..config import positive, require
+from ..robot import RobotSpec
+from .drive import DiffDrive, WheelOdometry, wrap_angle
+from .markers import full_scale, marker_image
+from .world import World, WorldError
+
+log = logging.getLogger(__name__)
+
+WORLD_GROUP, ROBOT_GROUP = 1, 2   # rays carry group 1, so walls must accept group 1
+PENETRATION_TOL_M = 1e-4   # deeper than this, a move is blocked
+RELEASE_M = 0.005          # a contact lasts until the robot is this far from every wall
+BUMPER_SIDES = ("left", "centre", "right")   # kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2
+WALL_RGBA = (0.82, 0.80, 0.76, 1.0)
+FLOOR_RGBA = (0.45, 0.45, 0.47, 1.0)
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """Simulator bridge parameters (config/sim_bridge.yaml)."""
+    world: str = "house"                 # a name in worlds/ or a path to a world YAML
+    robot: str = "turtlebot3_waffle_pi"  # a name in config/robots/ or a path
+    rtf: float = 1.0                     # target real-time factor; 0 = as fast as the CPU allows
+    physics_hz: float = 100.0
+    cmd_timeout_s: float = 0.5           # stop when no /cmd_vel arrives for this long
+    odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
+    camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
+    camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
+    ground_truth_rate_hz: float = 10.0
+    seed: int = 0
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "physics_hz", "cmd_timeout_s", "ground_truth_rate_hz")
+        require(self.physics_hz >= 100.0, src, "physics_hz", "must be >= 100 Hz")
+        require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
+        require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
+        require(self.camera_rate_hz >= 0.0, src, "camera_rate_hz", "must be >= 0")
+        require(self.camera_renderer in ("egl", "tiny"), src, "camera_renderer", "must be egl or tiny")
+
+
+@dataclass
+class BumperEvent:
+    side: int      # 0 left, 1 centre, 2 right
+    pressed: bool
+    stamp_s: float
+
+
+def yaw_quaternion(yaw: float) -> tuple:
+    return (0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
+
+
+class Simulator:
+    def __init__(self, world: World, robot: RobotSpec, settings: SimSettings):
+        self.world, self.robot, self.settings = world, robot, settings
+        self.dt = 1.0 / settings.physics_hz
+        self.steps = 0
+        seeds = np.random.SeedSequence(settings.seed).spawn(4)
+        self._rng_lidar, self._rng_odom, self._rng_imu, _ = (np.random.default_rng(s) for s in seeds)
+        self.camera_on = robot.camera is not None and settings.camera_rate_hz > 0
+        self.client = pb.connect(pb.DIRECT)
+        pb.setGravity(0, 0, 0, physicsClientId=self.client)
+        self._renderer = pb.ER_TINY_RENDERER
+        if self.camera_on and settings.camera_renderer == "egl":
+            self._load_egl()   # before any body exists: the plugin only sees bodies made after it
+        self.wall_boxes = self._build_walls()
+        self._robot_id = self._build_robot()
+        self._tmp = tempfile.TemporaryDirectory(prefix="turtlebot_recon_sim_")
+        if self.camera_on:
+            self._build_floor()
+            for tag in world.tags:
+                self._build_tag(tag)
+        self.drive = DiffDrive(robot, settings.cmd_timeout_s)
+        self.odom = WheelOdometry(robot.wheel_separation_m, settings.odom_slip_std_sqrt_m, self._rng_odom)
+        self._clearance = world.clearance()
+        self.pose = np.array(world.start, dtype=float)   # true (x, y, yaw) in the world frame
+        self.twist = (0.0, 0.0)                          # true body twist (m/s, rad/s)
+        self.gyro_yaw = 0.0                              # IMU orientation, integrated gyro
+        self.collisions = 0
+        self._contact = False
+        self._bumper = [False, False, False]
+        self.bumper_events: list[BumperEvent] = []
+        self.distance_m = 0.0
+        if self._penetrates(self.pose):
+            raise WorldError(f"{world.path}: key 'start': the {robot.name} footprint at "
+                             f"{tuple(round(v, 3) for v in world.start)} overlaps a wall")
+        self._place(self.pose)
+        lid = robot.lidar
+        angles = lid.angle_min_rad + lid.angle_increment_rad * np.arange(lid.beams)
+        self._beam_dirs = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        self._periods = {"scan": lid.rate_hz, "odom": robot.odom_rate_hz, "imu": robot.imu_rate_hz,
+                         "ground_truth": settings.ground_truth_rate_hz}
+        if self.camera_on:
+            self._periods["camera"] = settings.camera_rate_hz
+        self._periods = {k: max(1, round(settings.physics_hz / hz)) for k, hz in self._periods.items()}
+
+    # ---------------------------------------------------------------- construction
+    def _load_egl(self) -> None:
+        """PyBullet's EGL renderer (Mesa llvmpipe here) is ~4x faster than TinyRenderer."""
+        plugin = pkgutil.get_loader("eglRenderer")
+        pid = -1 if plugin is None else pb.loadPlugin(plugin.get_filename(), "_eglRendererPlugin",
+                                                       physicsClientId=self.client)
+        if pid < 0:
+            log.warning("EGL renderer plugin did not load; the camera uses TinyRenderer (slower)")
+        else:
+            self._renderer = pb.ER_BULLET_HARDWARE_OPENGL
+
+    def _build_walls(self) -> int:
+        """One static box per merged rectangle of solid cells; returns the box count."""
+        w, res, h = self.world, self.world.resolution, self.world.wall_height
+        rects = _native.merge_rectangles(w.solid.astype(np.uint8))
+        shapes: dict = {}
+        for row, col, nr, nc in rects:
+            half = (0.5 * nc * res, 0.5 * nr * res, 0.5 * h)
+            key = (int(nr), int(nc))
+            if key not in shapes:
+                coll = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
+                vis = (pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=WALL_RGBA,
+                                            physicsClientId=self.client) if self.camera_on else -1)
+                shapes[key] = (coll, vis)
+            coll, vis = shapes[key]
+            body = pb.createMultiBody(
+                baseMass=0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=vis,
+                basePosition=(w.origin[0] + (col + 0.5 * nc) * res, w.origin[1] + (row + 0.5 * nr) * res, 0.5 * h),
+                physicsClientId=self.client)
+            pb.setCollisionFilterGroupMask(body, -1, WORLD_GROUP, WORLD_GROUP | ROBOT_GROUP,
+                                          physicsClientId=self.client)
+        return len(rects)
+
+    def _build_robot(self) -> int:
+        r = self.robot
+        if r.is_round:
+            coll = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=r.radius_m, height=r.body_height_m,
+                                           physicsClientId=self.client)
+        else:
+            coll = pb.createCollisionShape(
+                pb.GEOM_BOX, halfExtents=(0.5 * r.footprint_length_m, 0.5 * r.footprint_width_m,
+                                          0.5 * r.body_height_m),
+                collisionFramePosition=(r.footprint_offset_x_m, 0, 0), physicsClientId=self.client)
+        # Mass > 0 so that Bullet reports its contacts with the static walls; it is never stepped.
+        body = pb.createMultiBody(baseMass=1.0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=-1,
+                                  physicsClientId=self.client)
+        pb.setCollisionFilterGroupMask(body, -1, ROBOT_GROUP, WORLD_GROUP, physicsClientId=self.client)
+        return body
+
+    def _build_floor(self) -> None:
+        sx, sy = self.world.size_m
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=(0.5 * sx + 1, 0.5 * sy + 1, 0.005),
+                                   rgbaColor=FLOOR_RGBA, physicsClientId=self.client)
+        pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=vis,
+                           basePosition=(self.world.origin[0] + 0.5 * sx, self.world.origin[1] + 0.5 * sy, -0.005),
+                           physicsClientId=self.client)
+
+    def _build_tag(self, tag) -> None:
+        """A textured quad on the wall: its +z is the marker normal, +y is up."""
+        tmp = Path(self._tmp.name)
+        quad = tmp / "quad.obj"
+        if not quad.exists():
+            quad.write_text("v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n"
+                            "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+                            "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
+        png = tmp / f"{tag.family}_{tag.id}.png"
+        cv2.imwrite(str(png), marker_image(tag.family, tag.id))
+        edge = tag.size * full_scale(tag.family)
+        n = np.array([math.cos(tag.yaw), math.sin(tag.yaw), 0.0])
+        up = np.array([0.0, 0.0, 1.0])
+        rot = Rotation.from_matrix(np.column_stack([np.cross(up, n), up, n]))
+        vis = pb.createVisualShape(pb.GEOM_MESH, fileName=str(quad), meshScale=(edge, edge, 1.0),
+                                   physicsClientId=self.client)
+        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=vis,
+                                  basePosition=(tag.x + 0.002 * n[0], tag.y + 0.002 * n[1], tag.z),
+                                  baseOrientation=rot.as_quat(), physicsClientId=self.client)
+        tex = pb.loadTexture(str(png), physicsClientId=self.client)
+        pb.changeVisualShape(body, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=self.client)
+
+    # ---------------------------------------------------------------- motion
+    @property
+    def time_s(self) -> float:
+        return self.steps * self.dt
+
+    def set_command(self, linear_mps: float, angular_radps: float) -> str | None:
+        """Latest /cmd_vel; returns a warning line when it was rejected or clamped."""
+        return self.drive.set_command(linear_mps, angular_radps, self.time_s)
+
+    def _place(self, pose) -> None:
+        pb.resetBasePositionAndOrientation(self._robot_id, (pose[0], pose[1], 0.5 * self.robot.body_height_m + 0.01),
+                                           yaw_quaternion(pose[2]), physicsClientId=self.client)
+
+    def _surely_free(self, pose, margin_m: float) -> bool:
+        """Cheap test on the distance field: no wall within the circumscribed radius + margin.
+
+        Most steps end here; only near walls does PyBullet's exact contact query run.
+        """
+        r, c = self.world.cell(pose[0], pose[1])
+        rows, cols = self._clearance.shape
+        if not (0 <= r < rows and 0 <= c < cols):
+            return False
+        slack = self.world.resolution * 0.7072   # the point may sit anywhere in its cell
+        return self._clearance[r, c] - slack >= self.robot.radius_m + margin_m
+
+    def _nearest_contact(self, pose):
+        """(distance m, world point on the robot) of the closest wall contact at ``pose``, or None.
+
+        Negative distances are penetrations. Leaves the body at ``pose``.
+        """
+        self._place(pose)
+        pb.performCollisionDetection(physicsClientId=self.client)
+        best = None
+        for c in pb.getContactPoints(bodyA=self._robot_id, physicsClientId=self.client):
+            if best is None or c[8] < best[0]:
+                best = (c[8], c[5])
+        return best
+
+    def _penetrates(self, pose):
+        """The deepest penetrating point (world xyz) of the robot at ``pose``, or None."""
+        if self._surely_free(pose, 0.0):
+            return None
+        c = self._nearest_contact(pose)
+        return c[1] if c is not None and c[0] < -PENETRATION_TOL_M else None
+
+    def _touching(self, pose) -> bool:
+        if self._surely_free(pose, RELEASE_M):
+            return False
+        c = self._nearest_contact(pose)
+        return c is not None and c[0] < RELEASE_M
+
+    def step(self) -> list:
+        """Advance one physics step; return the names of the sensors due now."""
+        v, w = self.drive.step(self.time_s, self.dt)
+        x, y, yaw = self.pose
+        mid = yaw + 0.5 * w * self.dt
+        target = np.array([x + v * self.dt * math.cos(mid), y + v * self.dt * math.sin(mid), wrap_angle(yaw + w * self.dt)])
+        moved, hit = target, None
+        if v != 0.0 or w != 0.0:
+            hit = self._penetrates(target)
+            if hit is not None:   # blocked: try turning in place, else stay; the wheels stall
+                moved = np.array([x, y, target[2]])
+                if w == 0.0 or self._penetrates(moved) is not None:
+                    moved = self.pose.copy()
+                self.drive.stop()
+            self._place(moved)
+        self._touch(hit, hit is not None or (self._contact and self._touching(moved)))
+        forward = (moved[0] - x) * math.cos(mid) + (moved[1] - y) * math.sin(mid)
+        turn = wrap_angle(moved[2] - yaw)
+        self.odom.update(forward, turn, self.dt)
+        self.twist = (forward / self.dt, turn / self.dt)
+        self.distance_m += abs(forward)
+        self.pose = moved
+        self.gyro_yaw = wrap_angle(self.gyro_yaw + self.imu_yaw_rate() * self.dt)
+        self.steps += 1
+        return [name for name, period in self._periods.items() if self.steps % period == 0]
+
+    def _touch(self, hit, touching: bool) -> None:
+        """Count contact episodes; turn contacts into Kobuki-style bumper press/release events.
+
+        An episode starts when a move is blocked and lasts until the robot is RELEASE_M clear.
+        """
+        now = self.time_s + self.dt
+        if touching and not self._contact:
+            self.collisions += 1
+        self._contact = touching
+        pressed = list(self._bumper) if touching else [False, False, False]
+        if hit is not None:
+            pressed = [False, False, False]
+            x, y, yaw = self.pose
+            bearing = wrap_angle(math.atan2(hit[1] - y, hit[0] - x) - yaw)
+            if abs(bearing) <= math.pi / 2:   # Kobuki bumpers cover the front half
+                side = 0 if bearing > math.pi / 6 else (2 if bearing < -math.pi / 6 else 1)
+                pressed[side] = True
+        if self.robot.bumpers:
+            for side in range(3):
+                if pressed[side] != self._bumper[side]:
+                    self.bumper_events.append(BumperEvent(side, pressed[side], now))
+        self._bumper = pressed
+
+    def set_pose(self, x: float, y: float, yaw: float) -> None:
+        """Teleport (tests and resets); raises if the footprint would overlap a wall."""
+        if self._penetrates((x, y, yaw)) is not None:
+            self._place(self.pose)
+            raise ValueError(f"pose ({x:.2f}, {y:.2f}) overlaps a wall")
+        self.pose = np.array([x, y, wrap_angle(yaw)])
+
+    # ---------------------------------------------------------------- sensors
+    def sensor_pose(self, x_m: float, y_m: float) -> tuple:
+        px, py, yaw = self.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        return px + c * x_m - s * y_m, py + s * x_m + c * y_m, yaw
+
+    def true_ranges(self) -> np.ndarray:
+        """Noise-free lidar ranges (m); inf where nothing is hit within range_max."""
+        lid = self.robot.lidar
+        sx, sy, yaw = self.sensor_pose(lid.x_m, lid.y_m)
+        c, s = math.cos(yaw), math.sin(yaw)
+        d = self._beam_dirs @ np.array([[c, s], [-s, c]])
+        frm = np.empty((lid.beams, 3))
+        frm[:, 0], frm[:, 1], frm[:, 2] = sx, sy, lid.z_m
+        to = frm.copy()
+        to[:, :2] += d * lid.range_max_m
+        hits = pb.rayTestBatch(frm.tolist(), to.tolist(), collisionFilterMask=WORLD_GROUP,
+                               physicsClientId=self.client)
+        frac = np.array([h[2] if h[0] >= 0 else np.inf for h in hits])
+        return frac * lid.range_max_m
+
+    def scan(self) -> np.ndarray:
+        """Lidar ranges as a real driver reports them: noise, dropouts, invalid values."""
+        lid = self.robot.lidar
+        r = self.true_ranges()
+        sigma = np.maximum(lid.noise_std_m, lid.noise_frac * np.where(np.isfinite(r), r, 0.0))
+        noisy = r + self._rng_lidar.normal(0.0, 1.0, r.shape) * sigma
+        valid = np.isfinite(r) & (noisy >= lid.range_min_m) & (noisy <= lid.range_max_m)
+        valid &= self._rng_lidar.random(r.shape) >= lid.dropout_prob
+        return np.where(valid, noisy, lid.invalid_value).astype(np.float32)
+
+    def imu_yaw_rate(self) -> float:
+        return self.twist[1] + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps)
+
+    def camera_matrix(self) -> np.ndarray:
+        cam = self.robot.camera
+        f = cam.fx_px
+        return np.array([[f, 0.0, 0.5 * (cam.width_px - 1)], [0.0, f, 0.5 * (cam.height_px - 1)], [0.0, 0.0, 1.0]])
+
+    def render_camera(self) -> np.ndarray:
+        """RGB image (height, width, 3) uint8 from the camera's current pose (pinhole, no distortion)."""
+        cam = self.robot.camera
+        cx, cy, yaw = self.sensor_pose(cam.x_m, cam.y_m)
+        eye = (cx, cy, cam.z_m)
+        target = (cx + math.cos(yaw), cy + math.sin(yaw), cam.z_m)
+        view = pb.computeViewMatrix(eye, target, (0, 0, 1), physicsClientId=self.client)
+        proj = pb.computeProjectionMatrixFOV(math.degrees(cam.vfov_rad), cam.width_px / cam.height_px,
+                                             cam.near_m, cam.far_m, physicsClientId=self.client)
+        _, _, rgba, _, _ = pb.getCameraImage(cam.width_px, cam.height_px, view, proj, shadow=0,
+                                             flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
+                                             physicsClientId=self.client)
+        return np.asarray(rgba, dtype=np.uint8).reshape(cam.height_px, cam.width_px, 4)[..., :3].copy()
+
+    def close(self) -> None:
+        if self.client is not None and pb.isConnected(self.client):
+            pb.disconnect(self.client)
+        self._tmp.cleanup()

@@ -1,0 +1,215 @@
+"""Simulator worlds (DESIGN §4): a map_server map plus optional start, wall height and tags.
+
+Grids here follow nav_msgs/OccupancyGrid order: row 0 is the bottom of the image (smallest y),
+cell (i, j) has its centre at ``origin + ((j + 0.5) * res, (i + 0.5) * res)``. Every pixel that
+is not free (occupied or unknown) is solid, so any saved map of any building is a world.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from ..config import load_yaml, ConfigError
+
+log = logging.getLogger(__name__)
+
+WORLDS_DIR = Path(__file__).resolve().parents[3] / "worlds"
+MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
+EXTRA_KEYS = {"start", "wall_height", "tags"}
+TAG_KEYS = {"id", "family", "x", "y", "z", "yaw", "size"}
+START_CLEARANCE_M = 0.35   # an automatic start leaves this much room around the robot centre
+
+
+class WorldError(ConfigError):
+    """A world file that cannot be simulated; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class Tag:
+    id: int
+    family: str
+    x: float      # m, centre of the marker on the wall surface (world frame)
+    y: float
+    z: float      # m, height of the marker centre
+    yaw: float    # rad, direction of the marker's outward normal
+    size: float   # m, edge of the black square
+
+
+@dataclass(frozen=True)
+class World:
+    name: str
+    path: Path
+    resolution: float          # m per cell
+    origin: tuple              # (x, y) of the grid's lower-left corner, m
+    free: np.ndarray           # bool (rows, cols), True where the robot may be
+    wall_height: float         # m
+    start: tuple               # (x, y, yaw)
+    tags: tuple                # Tag, ...
+
+    @property
+    def solid(self) -> np.ndarray:
+        return ~self.free
+
+    @property
+    def size_m(self) -> tuple:
+        return (self.free.shape[1] * self.resolution, self.free.shape[0] * self.resolution)
+
+    def cell(self, x: float, y: float) -> tuple:
+        """(row, col) of the cell holding world point (x, y); may be outside the grid."""
+        return (int(math.floor((y - self.origin[1]) / self.resolution)),
+                int(math.floor((x - self.origin[0]) / self.resolution)))
+
+    def is_free(self, x: float, y: float) -> bool:
+        r, c = self.cell(x, y)
+        rows, cols = self.free.shape
+        return 0 <= r < rows and 0 <= c < cols and bool(self.free[r, c])
+
+    def clearance(self) -> np.ndarray:
+        """Distance (m) from each free cell centre to the nearest solid cell's edge; 0 on solid."""
+        padded = np.pad(self.free, 1, constant_values=False)   # outside the image is solid
+        d = ndimage.distance_transform_edt(padded)[1:-1, 1:-1] * self.resolution
+        return np.where(self.free, np.maximum(d - 0.5 * self.resolution, 0.0), 0.0)
+
+
+def world_path(name_or_path: str | Path) -> Path:
+    """A world by its name in worlds/ or by a path to any world (map_server) YAML."""
+    p = Path(name_or_path)
+    if p.suffix in (".yaml", ".yml") or p.exists():
+        return p
+    return WORLDS_DIR / f"{name_or_path}.yaml"
+
+
+def _number(meta: dict, key: str, src: Path, default=None) -> float:
+    v = meta.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise WorldError(f"{src}: key '{key}': expected a number, got {v!r}")
+    return float(v)
+
+
+def occupancy_classes(pixels: np.ndarray, meta: dict, src: Path) -> np.ndarray:
+    """map_server's interpretation: -1 unknown, 0 free, 100 occupied, per pixel (image order)."""
+    mode = meta.get("mode", "trinary")
+    if mode not in ("trinary", "scale", "raw"):
+        raise WorldError(f"{src}: key 'mode': expected trinary, scale or raw, got {mode!r}")
+    if pixels.ndim == 3:  # map_server averages the colour channels and ignores alpha
+        pixels = pixels[..., :3].mean(axis=2)
+    v = pixels.astype(np.float64)
+    out = np.full(v.shape, -1, np.int8)
+    if mode == "raw":
+        out[v <= 100] = 0
+        out[(v > 0) & (v <= 100)] = 100
+        return out
+    occ_t = _number(meta, "occupied_thresh", src, 0.65)
+    free_t = _number(meta, "free_thresh", src, 0.196)
+    negate = meta.get("negate", 0)
+    p = v / 255.0 if negate else (255.0 - v) / 255.0
+    out[p > occ_t] = 100
+    out[p < free_t] = 0
+    return out
+
+
+def load_world(name_or_path: str | Path) -> World:
+    """Load and check a world; raise WorldError naming the file and key on bad input."""
+    src = world_path(name_or_path)
+    if not src.exists():
+        known = sorted(q.stem for q in WORLDS_DIR.glob("*.yaml"))
+        raise WorldError(f"{src}: world file not found (shipped worlds: {known})")
+    try:
+        meta = load_yaml(src)
+    except ConfigError as exc:
+        raise WorldError(str(exc)) from None
+    unknown = sorted(set(meta) - MAP_KEYS - EXTRA_KEYS)
+    if unknown:
+        log.warning("%s: ignoring unknown key(s) %s", src, unknown)
+    if "image" not in meta:
+        raise WorldError(f"{src}: key 'image': missing")
+    image = src.parent / str(meta["image"])
+    if not image.is_file():
+        raise WorldError(f"{src}: key 'image': file {image} not found")
+    res = _number(meta, "resolution", src)
+    if not 0.001 <= res <= 1.0:
+        raise WorldError(f"{src}: key 'resolution': {res} m per pixel is not a plausible map "
+                         "resolution (expected 0.001-1.0)")
+    origin = meta.get("origin", [0.0, 0.0, 0.0])
+    if not (isinstance(origin, list) and len(origin) in (2, 3)
+            and all(isinstance(o, (int, float)) and math.isfinite(o) for o in origin)):
+        raise WorldError(f"{src}: key 'origin': expected [x, y, yaw], got {origin!r}")
+    if len(origin) == 3 and abs(origin[2]) > 1e-9:
+        raise WorldError(f"{src}: key 'origin': a rotated map (yaw {origin[2]}) is not supported")
+    pixels = cv2.imread(str(image), cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        raise WorldError(f"{src}: key 'image': {image} is not a readable image")
+    free = np.flipud(occupancy_classes(pixels, meta, src) == 0).copy()
+    wall_height = _number(meta, "wall_height", src, 0.5)
+    if wall_height <= 0:
+        raise WorldError(f"{src}: key 'wall_height': must be positive, got {wall_height}")
+    world = World(name=src.stem, path=src, resolution=res, origin=(float(origin[0]), float(origin[1])),
+                  free=free, wall_height=wall_height, start=(0.0, 0.0, 0.0), tags=())
+    start = _start(world, meta.get("start"), src)
+    tags = tuple(_tag(world, i, t, src) for i, t in enumerate(meta.get("tags") or []))
+    ids = [(t.family, t.id) for t in tags]
+    if len(set(ids)) != len(ids):
+        raise WorldError(f"{src}: key 'tags': duplicate (family, id) pairs")
+    return World(**{**world.__dict__, "start": start, "tags": tags})
+
+
+def _start(world: World, start, src: Path) -> tuple:
+    if start is not None:
+        if not (isinstance(start, list) and len(start) == 3
+                and all(isinstance(s, (int, float)) and math.isfinite(s) for s in start)):
+            raise WorldError(f"{src}: key 'start': expected [x, y, yaw], got {start!r}")
+        if not world.is_free(start[0], start[1]):
+            raise WorldError(f"{src}: key 'start': ({start[0]}, {start[1]}) is not in free space")
+        return (float(start[0]), float(start[1]), float(start[2]))
+    return auto_start(world, src)
+
+
+def auto_start(world: World, src: Path, clearance_m: float = START_CLEARANCE_M) -> tuple:
+    """A free cell with room for the robot, in the largest open region, nearest the map centre."""
+    room = world.clearance() >= clearance_m
+    if not room.any():
+        raise WorldError(f"{src}: key 'image': no free cell has {clearance_m} m of clearance "
+                         "for the robot (is the map all occupied/unknown, or negated?)")
+    labels, n = ndimage.label(room, structure=np.ones((3, 3)))
+    sizes = ndimage.sum(room, labels, index=np.arange(1, n + 1))
+    biggest = labels == (1 + int(np.argmax(sizes)))
+    rows, cols = np.nonzero(biggest)
+    centre = (np.array(world.free.shape) - 1) / 2.0
+    k = int(np.argmin((rows - centre[0]) ** 2 + (cols - centre[1]) ** 2))
+    res = world.resolution
+    return (float(world.origin[0] + (cols[k] + 0.5) * res), float(world.origin[1] + (rows[k] + 0.5) * res), 0.0)
+
+
+def _tag(world: World, i: int, t, src: Path) -> Tag:
+    where = f"{src}: key 'tags[{i}]'"
+    if not isinstance(t, dict):
+        raise WorldError(f"{where}: expected a mapping, got {t!r}")
+    missing = sorted(TAG_KEYS - {"family", "z", "size"} - set(t))
+    if missing:
+        raise WorldError(f"{where}: missing {missing}")
+    unknown = sorted(set(t) - TAG_KEYS)
+    if unknown:
+        raise WorldError(f"{where}: unknown key(s) {unknown}")
+    tag = Tag(id=int(t["id"]), family=str(t.get("family", "tag36h11")), x=float(t["x"]),
+              y=float(t["y"]), z=float(t.get("z", 0.25)), yaw=float(t["yaw"]),
+              size=float(t.get("size", 0.16)))
+    if not 0.0 < tag.size <= 2.0:
+        raise WorldError(f"{where}: size {tag.size} m is not a plausible marker size")
+    probe = max(world.resolution, 0.05)
+    nx, ny = math.cos(tag.yaw), math.sin(tag.yaw)
+    if not world.is_free(tag.x + probe * nx, tag.y + probe * ny):
+        raise WorldError(f"{where}: tag {tag.id} at ({tag.x}, {tag.y}) is inside solid space "
+                         f"(the point {probe} m along its normal, yaw {tag.yaw}, is not free)")
+    if world.is_free(tag.x - probe * nx, tag.y - probe * ny):
+        log.warning("%s: tag %d at (%.2f, %.2f) is not on a wall (free space behind it)",
+                    where, tag.id, tag.x, tag.y)
+    if not 0.0 < tag.z + 0.5 * tag.size <= world.wall_height + 1e-9:
+        raise WorldError(f"{where}: tag {tag.id} (z {tag.z}, size {tag.size}) does not fit on a "
+                         f"wall of height {world.wall_height} m")
+    return tag

@@ -1,0 +1,518 @@
+"""Procedural simulator worlds (DESIGN.md section 4), ROS-free: numpy, OpenCV, PyYAML only.
+
+A world is a map_server map (binary PGM + YAML) with the extra keys ``wall_height``, ``start``
+and ``tags``.  Lengths are metres, angles radians.  World frame: x right, y up, origin at the
+bottom-left corner of the image; pixel (row, col), row 0 at the top, has its centre at
+x = ox + (col + 0.5) * res, y = oy + (H - row - 0.5) * res.  Every non-free pixel is solid.
+
+    python -m turtlebot_recon.sim.worldgen OUTDIR [--only NAME]
+"""
+import argparse
+import math
+import os
+import sys
+
+import cv2
+import numpy as np
+import yaml
+
+FREE, OCCUPIED, UNKNOWN = 254, 0, 205      # map_saver pixel values
+RES = 0.05                                  # m per pixel
+WALL_HEIGHT = 0.5                           # m
+TAG_Z = 0.25                                # m, marker centre height (mid-wall)
+TAG_SIZES = {"tag36h11": 0.16, "aruco_6x6_100": 0.10}   # m, black-square edge
+ROBOT_RADIUS = 0.2                          # m, reachability checks
+START_CLEARANCE = 0.4                       # m
+
+
+# ------------------------------------------------------------------ drawing in metres
+class Canvas:
+    """An image addressed in building metres: world = building + ``margin`` (origin [0, 0, 0]).
+
+    Starts all UNKNOWN (the outside, as map_saver leaves it).  Coordinates should lie on the
+    0.05 m grid so that walls come out exactly as thick as asked.
+    """
+
+    def __init__(self, width, height, margin=0.5, res=RES):
+        self.res, self.margin = res, margin
+        self.img = np.full((round((height + 2 * margin) / res),
+                            round((width + 2 * margin) / res)), UNKNOWN, np.uint8)
+
+    def rect(self, x0, y0, x1, y1, value=OCCUPIED):
+        """Fill the axis-aligned box [x0, x1] x [y0, y1] (m)."""
+        h, m, r = self.img.shape[0], self.margin, self.res
+        c0, c1 = round((min(x0, x1) + m) / r), round((max(x0, x1) + m) / r)
+        r0, r1 = h - round((max(y0, y1) + m) / r), h - round((min(y0, y1) + m) / r)
+        self.img[max(r0, 0):r1, max(c0, 0):c1] = value
+
+    def circle(self, x, y, radius, value=OCCUPIED):
+        """Fill every pixel whose centre is within ``radius`` (m) of (x, y)."""
+        h, m, r = self.img.shape[0], self.margin, self.res
+        cols = np.arange(max(0, int((x + m - radius) / r) - 1), int((x + m + radius) / r) + 2)
+        rows = np.arange(max(0, h - int((y + m + radius) / r) - 2), h - int((y + m - radius) / r) + 1)
+        px, py = (cols + 0.5) * r - m, (h - rows - 0.5) * r - m
+        # strict '<': with '<=' a radius of whole pixels grows one-pixel nubs at N, E, S, W
+        inside = (px[None, :] - x) ** 2 + (py[:, None] - y) ** 2 < radius ** 2
+        self.img[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1][inside] = value
+
+    def hwall(self, y, x0, x1, t=0.1):
+        self.rect(x0, y - t / 2, x1, y + t / 2)
+
+    def vwall(self, x, y0, y1, t=0.1):
+        self.rect(x - t / 2, y0, x + t / 2, y1)
+
+    def hdoor(self, y, xc, width=0.9, t=0.1):
+        """Doorway through the horizontal wall centred on y (only the wall is carved)."""
+        self.rect(xc - width / 2, y - t / 2, xc + width / 2, y + t / 2, FREE)
+
+    def vdoor(self, x, yc, width=0.9, t=0.1):
+        self.rect(x - t / 2, yc - width / 2, x + t / 2, yc + width / 2, FREE)
+
+    def building(self, width, height, t=0.2):
+        """Outer walls of thickness t, free inside."""
+        self.rect(0, 0, width, height)
+        self.rect(t, t, width - t, height - t, FREE)
+
+
+# ------------------------------------------------------------------ geometry helpers
+def free_mask(image, meta=None):
+    """Boolean mask of free pixels, following map_server's thresholds (trinary mode)."""
+    meta = meta or {}
+    occ = image.astype(np.float32) / 255.0 if meta.get("negate", 0) else (255.0 - image) / 255.0
+    return occ < meta.get("free_thresh", 0.196)
+
+
+def world_to_px(x, y, shape, res, origin):
+    """(row, col) integer arrays of the pixels containing world points (x, y)."""
+    col = np.floor((np.asarray(x) - origin[0]) / res).astype(int)
+    row = shape[0] - 1 - np.floor((np.asarray(y) - origin[1]) / res).astype(int)
+    return row, col
+
+
+def px_to_world(row, col, shape, res, origin):
+    return origin[0] + (np.asarray(col) + 0.5) * res, origin[1] + (shape[0] - np.asarray(row) - 0.5) * res
+
+
+def clearance(free, res):
+    """Distance (m) from each pixel centre to the nearest non-free pixel's edge (0 if solid)."""
+    d = cv2.distanceTransform(free.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    return np.maximum(d * res - res / 2, 0.0)
+
+
+def reachable(free, res, origin, start_xy, radius=ROBOT_RADIUS):
+    """Pixels a disc robot of ``radius`` (m) can centre on, 8-connected to the start."""
+    ok = (clearance(free, res) > radius).astype(np.uint8)
+    _, labels = cv2.connectedComponents(ok, connectivity=8)
+    r, c = world_to_px(start_xy[0], start_xy[1], free.shape, res, origin)
+    return (labels == labels[r, c]) & (ok > 0)
+
+
+def find_start(free, res, origin, prefer_xy, yaw=0.0, min_clear=START_CLEARANCE):
+    """Pose [x, y, yaw] nearest ``prefer_xy`` with clearance >= min_clear, in the largest
+    robot-reachable region (so never in a pocket cut off from the building)."""
+    clear = clearance(free, res)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((clear > ROBOT_RADIUS).astype(np.uint8), connectivity=8)
+    main = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    rows, cols = np.nonzero((labels == main) & (clear >= min_clear + res))   # + res: pixel rounding
+    xs, ys = px_to_world(rows, cols, free.shape, res, origin)
+    i = int(np.argmin((xs - prefer_xy[0]) ** 2 + (ys - prefer_xy[1]) ** 2))
+    return [float(xs[i]), float(ys[i]), float(yaw)]
+
+
+def _fps(points, k, rng, weight=None, group=None):
+    """Farthest-point sampling of k indices; ``weight`` in (0, 1] scales each point's score,
+    and points whose ``group`` (e.g. room) already holds a chosen point, or is 0 (unknown),
+    score a quarter."""
+    weight = np.ones(len(points)) if weight is None else weight
+    group = np.zeros(len(points)) if group is None else np.asarray(group)
+    best = np.flatnonzero(weight >= weight.max())
+    chosen = [int(rng.choice(best))]
+    dmin = np.linalg.norm(points - points[chosen[0]], axis=1)
+    while len(chosen) < min(k, len(points)):
+        used = np.isin(group, group[chosen]) | (group == 0)
+        i = int(np.argmax(dmin * weight * np.where(used, 0.25, 1.0)))
+        chosen.append(i)
+        dmin = np.minimum(dmin, np.linalg.norm(points - points[i], axis=1))
+    return chosen
+
+
+# ------------------------------------------------------------------ tags
+def check_tag(free, res, origin, x, y, yaw, size, support=None, reach=None, depth=0.6):
+    """Return '' if a marker of edge ``size`` (m) at wall-surface point (x, y) facing ``yaw``
+    is valid, else the reason.  Valid: axis-aligned yaw; along the full width size*1.3 the
+    0.10 m behind the surface is solid (and ``support``, e.g. walls only, if given) and the
+    ``depth`` metres in front are free; if ``reach`` is given, some pixel on the normal ray in
+    front, in line of sight, is robot-reachable (so a camera can look at the tag)."""
+    n = np.array([math.cos(yaw), math.sin(yaw)])
+    if np.abs(n).max() < 0.999:
+        return "yaw not axis-aligned"
+    n = np.round(n)
+    t = np.array([-n[1], n[0]])
+    half = size * 1.3 / 2
+    along = np.linspace(-half, half, max(3, int(math.ceil(2 * half / (res / 2))) + 1))
+
+    def px(depths):   # depth offsets a quarter pixel off the edges, so none is ambiguous
+        pts = np.array([x, y]) + depths[:, None, None] * n + along[None, :, None] * t
+        r, c = world_to_px(pts[..., 0], pts[..., 1], free.shape, res, origin)
+        inside = (r >= 0) & (r < free.shape[0]) & (c >= 0) & (c < free.shape[1])
+        return np.clip(r, 0, free.shape[0] - 1), np.clip(c, 0, free.shape[1] - 1), inside
+
+    r, c, inside = px(-np.arange(1, 8, 2) * res / 4)           # 0.0125 .. 0.0875 m behind
+    if (free[r, c] & inside).any():
+        return "not solid behind"
+    if support is not None and not (support[r, c] & inside).all():
+        return "not on a wall"
+    r, c, inside = px(np.arange(res / 4, depth, res / 2))
+    if not (free[r, c] & inside).all():
+        return "front not free to %.2f m" % depth
+    if reach is not None:
+        r, c, inside = px(np.arange(res / 4, 3.0, res / 2))
+        r, c, inside = r[:, len(along) // 2], c[:, len(along) // 2], inside[:, len(along) // 2]
+        seen = np.cumprod(free[r, c] & inside).astype(bool)     # line of sight ends at a solid
+        if not reach[r[seen], c[seen]].any():
+            return "not visible from reachable space"
+    return ""
+
+
+def place_tags(free, res, origin, count, rng, families=("tag36h11",), support=None,
+               reach=None, first_id=0, z=TAG_Z, depth=0.6):
+    """Find ``count`` valid wall spots (see check_tag) spread far apart, families cycled.
+
+    Candidates are the free pixels with a solid 4-neighbour; the tag sits on that shared
+    pixel edge, centred on the pixel.  Spots are chosen by farthest-point sampling, with the
+    score damped near the end of a straight wall run so that tags avoid room corners, and
+    damped in rooms that already hold a tag.  Rooms are the parts of the space not in
+    ``support`` (walls; furniture would split rooms) with more than 0.5 m clearance: that cuts
+    doorways (<= 1.0 m) but keeps corridors.
+    """
+    size = max(TAG_SIZES[f] for f in families)          # every spot fits any family
+    open_space = free if support is None else ~support
+    _, rooms = cv2.connectedComponents((clearance(open_space, res) > 0.5).astype(np.uint8), connectivity=8)
+    solid = np.pad(~free, 1, constant_values=True)
+    h, w = free.shape
+    pos, cent, room = [], [], []
+    for yaw in (0.0, math.pi / 2, math.pi, -math.pi / 2):
+        nx, ny = round(math.cos(yaw)), round(math.sin(yaw))
+        dr, dc = ny, -nx                                # pixel offset of the solid neighbour
+        cand = free & solid[1 + dr:1 + dr + h, 1 + dc:1 + dc + w]
+        valid = np.zeros_like(cand)
+        for r, c in zip(*np.nonzero(cand)):
+            x, y = px_to_world(r, c, free.shape, res, origin)
+            x, y = x - nx * res / 2, y - ny * res / 2
+            valid[r, c] = not check_tag(free, res, origin, x, y, yaw, size, support, reach, depth)
+        # Distance (m) to the nearer end of the run of valid spots along the wall, capped at 1 m.
+        axis = 1 if nx == 0 else 0
+        run = np.full(valid.shape, 20.0)
+        for sign in (1, -1):
+            steps, prev = np.zeros(valid.shape), valid.copy()
+            for k in range(1, 21):
+                prev &= np.roll(valid, sign * k, axis=axis)
+                steps += prev
+            run = np.minimum(run, steps)
+        for r, c in zip(*np.nonzero(valid)):
+            x, y = px_to_world(r, c, free.shape, res, origin)
+            pos.append((x - nx * res / 2, y - ny * res / 2, yaw))
+            cent.append(run[r, c] * res)
+            ray = rooms[np.clip(r - ny * np.arange(60), 0, h - 1), np.clip(c + nx * np.arange(60), 0, w - 1)]
+            room.append(ray[ray > 0][0] if (ray > 0).any() else 0)    # first room within 3 m
+    if len(pos) < count:
+        raise RuntimeError("only %d valid tag spots, %d wanted" % (len(pos), count))
+    pos = np.array(pos)
+    # Linear damping: a spot 0.1 m from a corner scores 1/8 of one 0.8 m along the wall.
+    chosen = _fps(pos[:, :2], count, rng, np.clip(np.array(cent) / 0.8, 0.05, 1.0), room)
+    return [make_tag(first_id + k, families[k % len(families)], *pos[i], z=z) for k, i in enumerate(chosen)]
+
+
+def make_tag(tag_id, family, x, y, yaw, z=TAG_Z):
+    return {"id": int(tag_id), "family": family, "x": float(x), "y": float(y), "z": float(z),
+            "yaw": float(yaw), "size": TAG_SIZES[family]}
+
+
+# ------------------------------------------------------------------ world assembly, checks, I/O
+def make_meta(name, start, tags, res=RES):
+    return {"image": name + ".pgm", "resolution": res, "origin": [0.0, 0.0, 0.0], "negate": 0,
+            "occupied_thresh": 0.65, "free_thresh": 0.196, "mode": "trinary",
+            "wall_height": WALL_HEIGHT, "start": list(start), "tags": tags}
+
+
+def _finish(cv, name, prefer, yaw, n_tags, rng, families=("tag36h11",), support=None, tags=None):
+    """Pick the start near building point ``prefer`` and place tags; returns (image, meta)."""
+    origin = (0.0, 0.0)
+    free = cv.img == FREE
+    start = find_start(free, cv.res, origin, (prefer[0] + cv.margin, prefer[1] + cv.margin), yaw)
+    if tags is None:
+        reach = reachable(free, cv.res, origin, start[:2])
+        tags = place_tags(free, cv.res, origin, n_tags, rng, families, support, reach)
+    return cv.img, make_meta(name, start, tags, cv.res)
+
+
+def validate_world(image, meta, radius=ROBOT_RADIUS, min_pocket=1.0):
+    """List of problems (empty = fine): start clearance, tag checks, and free regions of more
+    than ``min_pocket`` m^2 that a robot of ``radius`` (m) can neither enter nor sweep."""
+    res, origin = meta["resolution"], meta["origin"][:2]
+    free, problems = free_mask(image, meta), []
+    x, y, _ = meta["start"]
+    r, c = world_to_px(x, y, image.shape, res, origin)
+    if clearance(free, res)[r, c] < START_CLEARANCE:
+        problems.append("start clearance below %.2f m" % START_CLEARANCE)
+    reach = reachable(free, res, origin, (x, y), radius)
+    k = 2 * int(math.ceil(radius / res)) + 1
+    swept = cv2.dilate(reach.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
+    n, labels, stats, cen = cv2.connectedComponentsWithStats((free & ~swept).astype(np.uint8), connectivity=8)
+    for i in range(1, n):
+        if stats[i, cv2.CC_STAT_AREA] * res * res > min_pocket:
+            px, py = px_to_world(cen[i][1], cen[i][0], image.shape, res, origin)
+            problems.append("unreachable free area %.1f m^2 near (%.1f, %.1f)"
+                            % (stats[i, cv2.CC_STAT_AREA] * res * res, px, py))
+    ids = [t["id"] for t in meta["tags"]]
+    if len(set(ids)) != len(ids):
+        problems.append("duplicate tag ids")
+    for t in meta["tags"]:
+        why = check_tag(free, res, origin, t["x"], t["y"], t["yaw"], t["size"], reach=reach)
+        if why:
+            problems.append("tag %d: %s" % (t["id"], why))
+    return problems
+
+
+def _rounded(v):
+    if isinstance(v, float):
+        return round(v, 4) + 0.0                  # + 0.0 turns -0.0 into 0.0
+    if isinstance(v, dict):
+        return {k: _rounded(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_rounded(x) for x in v]
+    return v
+
+
+def write_world(directory, name, image, meta):
+    """Write NAME.pgm (binary P5) and NAME.yaml (floats to 4 decimals, one flow-style tag per line)."""
+    os.makedirs(directory, exist_ok=True)
+    if not cv2.imwrite(os.path.join(directory, name + ".pgm"), image):
+        raise IOError("cannot write %s.pgm" % name)
+    meta = _rounded(dict(meta, image=name + ".pgm"))
+    # default_flow_style=None: collections of scalars (origin, start, each tag) go inline.
+    text = yaml.safe_dump(meta, default_flow_style=None, sort_keys=False, width=1000)
+    with open(os.path.join(directory, name + ".yaml"), "w") as f:
+        f.write(text)
+
+
+# ------------------------------------------------------------------ the worlds
+def house(seed=1):
+    """About 15 x 10 m: hallway, living room, kitchen, 2 bathrooms, laundry, 2 bedrooms, study."""
+    rng = np.random.default_rng(seed)
+    W, H = 15.0, 10.0
+    cv = Canvas(W, H)
+    cv.building(W, H)
+    cv.hwall(4.25, 0.2, W - 0.2)                    # hallway y in [4.3, 5.7], 1.4 m wide
+    cv.hwall(5.75, 0.2, W - 0.2)
+    for x in (6.0, 10.0, 12.5):
+        cv.vwall(x, 0.2, 4.25)                      # south: living | kitchen | bath | laundry
+    for x in (4.5, 6.5, 10.5):
+        cv.vwall(x, 5.75, H - 0.2)                  # north: bed 1 | bath 2 | bed 2 | study
+    for xc, w in ((3.0, 1.0), (6.9, 0.9), (11.2, 0.8), (13.6, 0.9)):
+        cv.hdoor(4.25, xc, w)
+    for xc, w in ((3.6, 0.9), (5.5, 0.8), (7.3, 0.9), (11.3, 0.9)):
+        cv.hdoor(5.75, xc, w)
+    cv.vdoor(6.0, 3.4, 0.9)                         # living room <-> kitchen
+    walls = cv.img != FREE
+    for box in ((1.8, 0.2, 4.0, 1.1),               # living: sofa, TV unit, coffee table, armchair
+                (0.2, 1.4, 0.6, 2.9), (2.3, 1.9, 3.5, 2.5), (4.4, 2.3, 5.2, 3.1),
+                (6.05, 0.2, 9.95, 0.8), (9.35, 0.8, 9.95, 2.8), (7.2, 2.0, 8.4, 2.8),  # kitchen
+                (10.05, 0.2, 11.75, 0.95), (11.95, 2.0, 12.45, 3.1), (10.05, 2.0, 10.5, 2.7),  # bath
+                (14.2, 0.2, 14.8, 1.4), (12.55, 0.2, 13.4, 0.6),                      # laundry
+                (1.3, 7.8, 2.9, 9.8), (0.85, 9.35, 1.3, 9.8), (2.9, 9.35, 3.35, 9.8),  # bedroom 1
+                (0.2, 5.8, 0.8, 7.0),
+                (5.45, 8.8, 6.45, 9.8),                                               # bath 2
+                (7.8, 7.8, 9.4, 9.8), (6.55, 8.0, 7.05, 9.0),                        # bedroom 2
+                (12.6, 9.1, 14.8, 9.8), (14.4, 6.6, 14.8, 8.2)):                      # study
+        cv.rect(*box)
+    cv.circle(12.0, 7.4, 0.45)                      # study: round table
+    cv.circle(0.45, 0.45, 0.25)                     # plant pots in corners
+    cv.circle(10.2, 6.05, 0.25)
+    cv.circle(14.55, 5.0, 0.25)                     # hallway end: plant pot
+    scatter_circles(cv, 2, (0.2, 0.3), 0.75, rng)   # 0.75 m gaps keep 0.7 m passages
+    return _finish(cv, "house", (1.0, 5.0), 0.0, 9, rng, support=walls)
+
+
+def scatter_circles(cv, n, radii, gap, rng, keep=()):
+    """Add n discs of radius in ``radii`` (m) with >= ``gap`` m to any solid and to ``keep``
+    points [(x, y)] (building coordinates)."""
+    for _ in range(n):
+        # whole pixels: other radii rasterise with one-pixel nubs at N, E, S, W
+        radius = round(float(rng.uniform(*radii)) / cv.res) * cv.res
+        clear = clearance(cv.img == FREE, cv.res)
+        ok = clear >= radius + gap + cv.res                 # + res: pixel rounding of the disc
+        rows, cols = np.nonzero(ok)
+        xs, ys = px_to_world(rows, cols, ok.shape, cv.res, (-cv.margin, -cv.margin))
+        for kx, ky in keep:
+            far = (xs - kx) ** 2 + (ys - ky) ** 2 >= (radius + gap) ** 2
+            xs, ys = xs[far], ys[far]
+        if len(xs) == 0:
+            raise RuntimeError("no room for another disc")
+        i = rng.integers(len(xs))
+        cv.circle(float(xs[i]), float(ys[i]), radius)
+
+
+def maze(seed=2, n=11, cell=0.6, wall=0.1):
+    """Perfect maze (seeded DFS) of n x n cells: corridors ``cell`` m, walls ``wall`` m, about
+    8 x 8 m, a 2 x 2-cell start room (a 0.6 m corridor cannot give 0.4 m start clearance) and
+    tags on dead-end walls facing down their corridor."""
+    rng = np.random.default_rng(seed)
+    pitch, size = cell + wall, n * (cell + wall) + wall
+    cv = Canvas(size, size)
+    cv.rect(0, 0, size, size)
+    x0 = lambda i: wall + i * pitch                 # noqa: E731 - cell's low edge (m)
+    openings = {(i, j): [] for i in range(n) for j in range(n)}
+    stack, seen = [(0, 0)], {(0, 0)}
+    while stack:
+        i, j = stack[-1]
+        nbrs = [(i + di, j + dj) for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1))
+                if (i + di, j + dj) in openings and (i + di, j + dj) not in seen]
+        if not nbrs:
+            stack.pop()
+            continue
+        a, b = nbrs[rng.integers(len(nbrs))]
+        openings[(i, j)].append((a - i, b - j))
+        openings[(a, b)].append((i - a, j - b))
+        seen.add((a, b))
+        stack.append((a, b))
+    for (i, j), dirs in openings.items():
+        cv.rect(x0(i), x0(j), x0(i) + cell, x0(j) + cell, FREE)
+        for di, dj in dirs:                         # carve the wall to the east / north
+            if (di, dj) == (1, 0):
+                cv.rect(x0(i) + cell, x0(j), x0(i + 1), x0(j) + cell, FREE)
+            elif (di, dj) == (0, 1):
+                cv.rect(x0(i), x0(j) + cell, x0(i) + cell, x0(j + 1), FREE)
+    cv.rect(x0(0), x0(0), x0(1) + cell, x0(1) + cell, FREE)  # start room: cells (0..1, 0..1)
+    ends = [(i, j, *d[0]) for (i, j), d in openings.items() if len(d) == 1 and max(i, j) > 1]
+    pts = np.array([(x0(i), x0(j)) for i, j, _, _ in ends], float)
+    tags = []
+    for k, e in enumerate(_fps(pts, 4, rng)):
+        i, j, di, dj = ends[e]                      # tag on the wall opposite the opening
+        x = x0(i) + cell / 2 - di * cell / 2 + cv.margin
+        y = x0(j) + cell / 2 - dj * cell / 2 + cv.margin
+        tags.append(make_tag(k, "tag36h11", x, y, math.atan2(dj, di)))
+    return _finish(cv, "maze", (pitch, pitch), math.pi / 4, 0, rng, tags=tags)
+
+
+def office(seed=3):
+    """32 x 21 m office: two 1.8 m corridors joined by three cross corridors, 20 offices and
+    meeting rooms with 0.9 m doors, desks with chairs, 12 tags (every third aruco_6x6_100)."""
+    rng = np.random.default_rng(seed)
+    W, H, T = 32.0, 21.0, 0.2
+    cv = Canvas(W, H)
+    cv.building(W, H, T)
+    for y in (5.95, 7.85, 13.15, 15.05):            # corridors y in [6.0, 7.8] and [13.2, 15.0]
+        cv.hwall(y, T, W - T)
+    for xa, xb in ((T, 2.0), (15.1, 16.9), (30.0, W - T)):   # cross corridors
+        cv.rect(xa, 7.8, xb, 13.2, FREE)
+        for x in (xa - 0.05, xb + 0.05):
+            if T < x < W - T:
+                cv.vwall(x, 7.8, 13.2)
+    rooms = []                                      # (x0, y0, x1, y1, door wall y, kind)
+    # Rows of rooms, given by wall centre lines; the end ones are existing walls (not drawn).
+    south = [T - 0.05, 4.0, 8.0, 16.0, 20.0, 28.0, W - T + 0.05]  # 8-16, 20-28: meeting
+    north = [T - 0.05] + [4.0 * k for k in range(1, 8)] + [W - T + 0.05]
+    mid = [2.05, 6.35, 10.7, 15.05], [16.95, 21.3, 25.6, 29.95]
+    for xs, y0, y1, dy in ((south, T, 5.9, (5.95,)), (north, 15.1, H - T, (15.05,)),
+                           (mid[0], 7.9, 13.1, (7.85, 13.15)), (mid[1], 7.9, 13.1, (7.85, 13.15))):
+        for x in xs[1:-1]:
+            cv.vwall(x, y0, y1)
+        for a, b in zip(xs[:-1], xs[1:]):
+            rooms.append((a + 0.05, y0, b - 0.05, y1, dy[rng.integers(len(dy))]))
+    for x0, y0, x1, y1, dy in rooms:
+        xc = round(float(rng.uniform(x0 + 0.8, x1 - 0.8)) / 0.05) * 0.05
+        cv.hdoor(dy, xc, 0.9)
+    walls = cv.img != FREE
+    for x0, y0, x1, y1, dy in rooms:
+        if x1 - x0 > 5.0:                           # meeting room: central table
+            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            cv.rect(cx - 1.6, cy - 0.6, cx + 1.6, cy + 0.6)
+        else:
+            _desks(cv, x0, y0, x1, y1, dy, rng)
+    return _finish(cv, "office", (1.1, 10.5), math.pi / 2, 12, rng,
+                   ("tag36h11", "tag36h11", "aruco_6x6_100"), walls)
+
+
+def _desks(cv, x0, y0, x1, y1, door_y, rng):
+    """Desk (1.4 x 0.7 m) with a chair against the wall opposite the door, sometimes a second
+    one against a side wall; chairs touch their desk so no slit pockets form."""
+    far_top = door_y < y0                           # far wall is the top one
+    s = -1 if far_top else 1                        # direction from the far wall into the room
+    yf = y1 if far_top else y0
+    dx = round(float(rng.uniform(x0 + 0.8, x1 - 2.2)) / 0.05) * 0.05
+    cv.rect(dx, yf, dx + 1.4, yf + s * 0.7)
+    cv.circle(dx + 0.7, yf + s * 0.9, 0.25)
+    if rng.random() < 0.6:                          # side desk along the y axis
+        left = dx > (x0 + x1) / 2 - 0.7             # on the side away from the first desk
+        xw = x0 if left else x1
+        sx = 1 if left else -1
+        ya = yf + s * 1.6
+        cv.rect(xw, ya, xw + sx * 0.7, ya + s * 1.4)
+        cv.circle(xw + sx * 0.9, ya + s * 0.7, 0.25)
+
+
+def arena(seed=4, n_cyl=16):
+    """One 15 x 15 m room with ``n_cyl`` cylinders (radius 0.15-0.4 m), >= 0.8 m gaps."""
+    rng = np.random.default_rng(seed)
+    W, T = 15.4, 0.2
+    cv = Canvas(W, W)
+    cv.building(W, W, T)
+    walls = cv.img != FREE
+    scatter_circles(cv, n_cyl, (0.15, 0.4), 0.8, rng, keep=[(W / 2, W / 2)])
+    return _finish(cv, "arena", (W / 2, W / 2), 0.0, 6, rng, support=walls)
+
+
+def warehouse(rows=1700, cols=1000, seed=0):
+    """A rows x cols map at 0.05 m (default 85 x 50 m) for load-time benchmarks: rack rows,
+    pillars, a loading dock with pallets, and unknown (205) blocks.  Returns (image, meta)."""
+    rng = np.random.default_rng(seed)
+    m = 0.5
+    W, H = cols * RES - 2 * m, rows * RES - 2 * m
+    cv = Canvas(W, H, margin=m)
+    cv.building(W, H, 0.3)
+    dock = 12.0                                     # loading area at the south end
+    x = 3.0
+    while x + 2.2 < W - 3.0:                        # double racks 2.2 m deep, 3 m aisles
+        y = dock
+        while y + 16.0 < H - 3.0:                   # 16 m rack runs, 4 m cross aisles
+            cv.rect(x, y, x + 2.2, y + 16.0)
+            if rng.random() < 0.3:                  # part of the rack never scanned
+                cv.rect(x + 0.3, y + 4.0, x + 1.9, y + 10.0, UNKNOWN)
+            cv.rect(x + 0.85, y + 17.75, x + 1.35, y + 18.25)   # pillar in the cross aisle
+            y += 20.0
+        x += 5.2
+    for _ in range(25):                             # pallets on the dock
+        px, py = rng.uniform(2.0, W - 4.0), rng.uniform(1.5, dock - 3.0)
+        cv.rect(px, py, px + 1.2, py + 1.0)
+    for _ in range(6):                              # unmapped patches
+        px, py = rng.uniform(2.0, W - 6.0), rng.uniform(1.5, H - 6.0)
+        cv.rect(px, py, px + rng.uniform(1.0, 4.0), py + rng.uniform(1.0, 4.0), UNKNOWN)
+    cv.rect(W - 10.3, 0.3, W - 0.3, 8.3, UNKNOWN)   # closed dock office, never seen inside
+    cv.hwall(8.3, W - 10.4, W - 0.3, 0.2)
+    cv.vwall(W - 10.3, 0.3, 8.4, 0.2)
+    return _finish(cv, "warehouse", (W / 2, dock / 2), math.pi / 2, 10, rng)
+
+
+WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Write the shipped simulator worlds.")
+    ap.add_argument("outdir")
+    ap.add_argument("--only", choices=sorted(WORLDS))
+    args = ap.parse_args(argv)
+    bad = 0
+    for name in [args.only] if args.only else list(WORLDS):
+        image, meta = WORLDS[name]()
+        write_world(args.outdir, name, image, meta)
+        problems = validate_world(image, meta)
+        bad += len(problems)
+        print("%-6s %4dx%-4d px  %5.1f x %4.1f m  %2d tags  %s" % (
+            name, image.shape[1], image.shape[0], image.shape[1] * RES, image.shape[0] * RES,
+            len(meta["tags"]), "; ".join(problems) or "ok"))
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
