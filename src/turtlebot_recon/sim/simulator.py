@@ -177,9 +177,9 @@ class Simulator:
     def _build_tag(self, tag) -> None:
         """A textured quad on the wall: its +z is the marker normal, +y is up."""
         tmp = Path(self._tmp.name)
-        quad = tmp / "quad.obj"
-        if not quad.exists():
-            quad.write_text("v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n"
+        # One mesh file per tag: PyBullet caches meshes by file name and would share one texture.
+        quad = tmp / f"{tag.family}_{tag.id}.obj"
+        quad.write_text("v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n"
                             "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
                             "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
         png = tmp / f"{tag.family}_{tag.id}.png"
@@ -222,16 +222,21 @@ class Simulator:
         return self._clearance[r, c] - slack >= self.robot.radius_m + margin_m
 
     def _nearest_contact(self, pose):
-        """(distance m, world point on the robot) of the closest wall contact at ``pose``, or None.
+        """(signed distance m, world point on the robot) to the closest wall within RELEASE_M.
 
-        Negative distances are penetrations. Leaves the body at ``pose``.
+        Negative distances are penetrations (GJK/EPA on the exact shapes); None when nothing
+        is that close. Leaves the body at ``pose``.
         """
         self._place(pose)
-        pb.performCollisionDetection(physicsClientId=self.client)
+        reach = self.robot.radius_m + RELEASE_M
+        lo, hi = (pose[0] - reach, pose[1] - reach, 0.0), (pose[0] + reach, pose[1] + reach, 1.0)
         best = None
-        for c in pb.getContactPoints(bodyA=self._robot_id, physicsClientId=self.client):
-            if best is None or c[8] < best[0]:
-                best = (c[8], c[5])
+        for body, _ in pb.getOverlappingObjects(lo, hi, physicsClientId=self.client) or ():
+            if body == self._robot_id:
+                continue
+            for c in pb.getClosestPoints(self._robot_id, body, RELEASE_M, physicsClientId=self.client):
+                if best is None or c[8] < best[0]:
+                    best = (c[8], c[5])
         return best
 
     def _penetrates(self, pose):

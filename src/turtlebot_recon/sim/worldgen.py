@@ -51,8 +51,9 @@ class Canvas:
         cols = np.arange(max(0, int((x + m - radius) / r) - 1), int((x + m + radius) / r) + 2)
         rows = np.arange(max(0, h - int((y + m + radius) / r) - 2), h - int((y + m - radius) / r) + 1)
         px, py = (cols + 0.5) * r - m, (h - rows - 0.5) * r - m
-        # strict '<': with '<=' a radius of whole pixels grows one-pixel nubs at N, E, S, W
-        inside = (px[None, :] - x) ** 2 + (py[:, None] - y) ** 2 < radius ** 2
+        # strictly inside (with float slack): a radius of whole pixels would otherwise grow
+        # one-pixel nubs at N, E, S and W
+        inside = (px[None, :] - x) ** 2 + (py[:, None] - y) ** 2 < (radius - 1e-6) ** 2
         self.img[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1][inside] = value
 
     def hwall(self, y, x0, x1, t=0.1):
@@ -61,12 +62,10 @@ class Canvas:
     def vwall(self, x, y0, y1, t=0.1):
         self.rect(x - t / 2, y0, x + t / 2, y1)
 
-    def hdoor(self, y, xc, width=0.9, t=0.1):
-        """Doorway through the horizontal wall centred on y (only the wall is carved)."""
-        self.rect(xc - width / 2, y - t / 2, xc + width / 2, y + t / 2, FREE)
-
-    def vdoor(self, x, yc, width=0.9, t=0.1):
-        self.rect(x - t / 2, yc - width / 2, x + t / 2, yc + width / 2, FREE)
+    def door(self, x, y, width=0.9, vertical=False, t=0.1):
+        """Doorway centred on (x, y) through a horizontal (or vertical) wall; only the wall is carved."""
+        w, d = (t / 2, width / 2) if vertical else (width / 2, t / 2)
+        self.rect(x - w, y - d, x + w, y + d, FREE)
 
     def building(self, width, height, t=0.2):
         """Outer walls of thickness t, free inside."""
@@ -190,11 +189,12 @@ def place_tags(free, res, origin, count, rng, families=("tag36h11",), support=No
     _, rooms = cv2.connectedComponents((clearance(open_space, res) > 0.5).astype(np.uint8), connectivity=8)
     solid = np.pad(~free, 1, constant_values=True)
     h, w = free.shape
+    even = (np.arange(h)[:, None] + np.arange(w)[None, :]) % 2 == 0  # spots 0.1 m apart on any wall
     pos, cent, room = [], [], []
     for yaw in (0.0, math.pi / 2, math.pi, -math.pi / 2):
         nx, ny = round(math.cos(yaw)), round(math.sin(yaw))
         dr, dc = ny, -nx                                # pixel offset of the solid neighbour
-        cand = free & solid[1 + dr:1 + dr + h, 1 + dc:1 + dc + w]
+        cand = free & solid[1 + dr:1 + dr + h, 1 + dc:1 + dc + w] & even   # every 0.1 m
         valid = np.zeros_like(cand)
         for r, c in zip(*np.nonzero(cand)):
             x, y = px_to_world(r, c, free.shape, res, origin)
@@ -202,17 +202,17 @@ def place_tags(free, res, origin, count, rng, families=("tag36h11",), support=No
             valid[r, c] = not check_tag(free, res, origin, x, y, yaw, size, support, reach, depth)
         # Distance (m) to the nearer end of the run of valid spots along the wall, capped at 1 m.
         axis = 1 if nx == 0 else 0
-        run = np.full(valid.shape, 20.0)
+        run = np.full(valid.shape, 10.0)
         for sign in (1, -1):
             steps, prev = np.zeros(valid.shape), valid.copy()
-            for k in range(1, 21):
-                prev &= np.roll(valid, sign * k, axis=axis)
+            for k in range(1, 11):
+                prev &= np.roll(valid, 2 * sign * k, axis=axis)
                 steps += prev
             run = np.minimum(run, steps)
         for r, c in zip(*np.nonzero(valid)):
             x, y = px_to_world(r, c, free.shape, res, origin)
             pos.append((x - nx * res / 2, y - ny * res / 2, yaw))
-            cent.append(run[r, c] * res)
+            cent.append(run[r, c] * 2 * res)
             ray = rooms[np.clip(r - ny * np.arange(60), 0, h - 1), np.clip(c + nx * np.arange(60), 0, w - 1)]
             room.append(ray[ray > 0][0] if (ray > 0).any() else 0)    # first room within 3 m
     if len(pos) < count:
@@ -224,15 +224,16 @@ def place_tags(free, res, origin, count, rng, families=("tag36h11",), support=No
 
 
 def make_tag(tag_id, family, x, y, yaw, z=TAG_Z):
-    return {"id": int(tag_id), "family": family, "x": float(x), "y": float(y), "z": float(z),
-            "yaw": float(yaw), "size": TAG_SIZES[family]}
+    """Tag dict as in the world YAML (values rounded to 4 decimals, + 0.0 turns -0.0 into 0.0)."""
+    return {"id": int(tag_id), "family": family, "x": round(float(x), 4) + 0.0, "y": round(float(y), 4) + 0.0,
+            "z": float(z), "yaw": round(float(yaw), 4) + 0.0, "size": TAG_SIZES[family]}
 
 
 # ------------------------------------------------------------------ world assembly, checks, I/O
 def make_meta(name, start, tags, res=RES):
     return {"image": name + ".pgm", "resolution": res, "origin": [0.0, 0.0, 0.0], "negate": 0,
             "occupied_thresh": 0.65, "free_thresh": 0.196, "mode": "trinary",
-            "wall_height": WALL_HEIGHT, "start": list(start), "tags": tags}
+            "wall_height": WALL_HEIGHT, "start": [round(float(v), 4) + 0.0 for v in start], "tags": tags}
 
 
 def _finish(cv, name, prefer, yaw, n_tags, rng, families=("tag36h11",), support=None, tags=None):
@@ -274,22 +275,13 @@ def validate_world(image, meta, radius=ROBOT_RADIUS, min_pocket=1.0):
     return problems
 
 
-def _rounded(v):
-    if isinstance(v, float):
-        return round(v, 4) + 0.0                  # + 0.0 turns -0.0 into 0.0
-    if isinstance(v, dict):
-        return {k: _rounded(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [_rounded(x) for x in v]
-    return v
-
-
 def write_world(directory, name, image, meta):
-    """Write NAME.pgm (binary P5) and NAME.yaml (floats to 4 decimals, one flow-style tag per line)."""
+    """Write NAME.pgm (binary P5) and NAME.yaml (one flow-style tag per line); values are
+    rounded to 4 decimals by make_meta / make_tag."""
     os.makedirs(directory, exist_ok=True)
     if not cv2.imwrite(os.path.join(directory, name + ".pgm"), image):
         raise IOError("cannot write %s.pgm" % name)
-    meta = _rounded(dict(meta, image=name + ".pgm"))
+    meta = dict(meta, image=name + ".pgm")
     # default_flow_style=None: collections of scalars (origin, start, each tag) go inline.
     text = yaml.safe_dump(meta, default_flow_style=None, sort_keys=False, width=1000)
     with open(os.path.join(directory, name + ".yaml"), "w") as f:
@@ -309,11 +301,10 @@ def house(seed=1):
         cv.vwall(x, 0.2, 4.25)                      # south: living | kitchen | bath | laundry
     for x in (4.5, 6.5, 10.5):
         cv.vwall(x, 5.75, H - 0.2)                  # north: bed 1 | bath 2 | bed 2 | study
-    for xc, w in ((3.0, 1.0), (6.9, 0.9), (11.2, 0.8), (13.6, 0.9)):
-        cv.hdoor(4.25, xc, w)
-    for xc, w in ((3.6, 0.9), (5.5, 0.8), (7.3, 0.9), (11.3, 0.9)):
-        cv.hdoor(5.75, xc, w)
-    cv.vdoor(6.0, 3.4, 0.9)                         # living room <-> kitchen
+    for x, y, w in ((3.0, 4.25, 1.0), (6.9, 4.25, 0.9), (11.2, 4.25, 0.8), (13.6, 4.25, 0.9),
+                    (3.6, 5.75, 0.9), (5.5, 5.75, 0.8), (7.3, 5.75, 0.9), (11.3, 5.75, 0.9)):
+        cv.door(x, y, w)
+    cv.door(6.0, 3.4, 0.9, vertical=True)           # living room <-> kitchen
     walls = cv.img != FREE
     for box in ((1.8, 0.2, 4.0, 1.1),               # living: sofa, TV unit, coffee table, armchair
                 (0.2, 1.4, 0.6, 2.9), (2.3, 1.9, 3.5, 2.5), (4.4, 2.3, 5.2, 3.1),
@@ -376,13 +367,10 @@ def maze(seed=2, n=11, cell=0.6, wall=0.1):
         openings[(a, b)].append((i - a, j - b))
         seen.add((a, b))
         stack.append((a, b))
-    for (i, j), dirs in openings.items():
-        cv.rect(x0(i), x0(j), x0(i) + cell, x0(j) + cell, FREE)
-        for di, dj in dirs:                         # carve the wall to the east / north
-            if (di, dj) == (1, 0):
-                cv.rect(x0(i) + cell, x0(j), x0(i + 1), x0(j) + cell, FREE)
-            elif (di, dj) == (0, 1):
-                cv.rect(x0(i), x0(j) + cell, x0(i) + cell, x0(j + 1), FREE)
+    for (i, j), dirs in openings.items():           # carve each cell and its east / north link
+        for di, dj in dirs + [(0, 0)]:
+            if di >= 0 and dj >= 0:
+                cv.rect(x0(i), x0(j), x0(i + di) + cell, x0(j + dj) + cell, FREE)
     cv.rect(x0(0), x0(0), x0(1) + cell, x0(1) + cell, FREE)  # start room: cells (0..1, 0..1)
     ends = [(i, j, *d[0]) for (i, j), d in openings.items() if len(d) == 1 and max(i, j) > 1]
     pts = np.array([(x0(i), x0(j)) for i, j, _, _ in ends], float)
@@ -409,7 +397,7 @@ def office(seed=3):
         for x in (xa - 0.05, xb + 0.05):
             if T < x < W - T:
                 cv.vwall(x, 7.8, 13.2)
-    rooms = []                                      # (x0, y0, x1, y1, door wall y, kind)
+    rooms = []                                      # (x0, y0, x1, y1, y of the door's wall)
     # Rows of rooms, given by wall centre lines; the end ones are existing walls (not drawn).
     south = [T - 0.05, 4.0, 8.0, 16.0, 20.0, 28.0, W - T + 0.05]  # 8-16, 20-28: meeting
     north = [T - 0.05] + [4.0 * k for k in range(1, 8)] + [W - T + 0.05]
@@ -422,7 +410,7 @@ def office(seed=3):
             rooms.append((a + 0.05, y0, b - 0.05, y1, dy[rng.integers(len(dy))]))
     for x0, y0, x1, y1, dy in rooms:
         xc = round(float(rng.uniform(x0 + 0.8, x1 - 0.8)) / 0.05) * 0.05
-        cv.hdoor(dy, xc, 0.9)
+        cv.door(xc, dy, 0.9)
     walls = cv.img != FREE
     for x0, y0, x1, y1, dy in rooms:
         if x1 - x0 > 5.0:                           # meeting room: central table

@@ -1,0 +1,108 @@
+"""Differential drive: distance, limits, timeout, bad commands, walls, bumpers, odometry noise."""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import drive
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.sim.drive import DiffDrive, WheelOdometry
+
+
+def drive_distance(sim, distance_m, speed):
+    """Command ``speed`` until ground truth has covered the distance the ramp-up predicts."""
+    a = sim.robot.max_linear_accel_mps2
+    ramp_t = speed / a
+    hold_t = (distance_m - 0.5 * a * ramp_t ** 2) / speed
+    drive(sim, speed, 0.0, ramp_t + hold_t)
+    drive(sim, 0.0, 0.0, 1.0)   # stop (decelerating adds speed^2 / 2a)
+
+
+@pytest.mark.parametrize("robot", ["turtlebot3_burger", "turtlebot2"])
+def test_one_metre_command_gives_one_metre(room_world, make_sim, robot):
+    sim = make_sim(room_world, robot)
+    drive_distance(sim, 1.0, 0.2)
+    a = sim.robot.max_linear_accel_mps2
+    expected = 1.0 + 0.2 ** 2 / (2 * a)          # plus the braking distance
+    assert sim.pose[0] - 1.0 == pytest.approx(expected, abs=0.01)
+    assert abs(sim.pose[1] - 1.5) < 1e-9 and abs(sim.pose[2]) < 1e-9
+    assert sim.odom.x == pytest.approx(sim.pose[0] - 1.0, abs=1e-9)   # no slip configured
+    assert sim.collisions == 0
+
+
+def test_limits_timeout_and_bad_commands(room_world, make_sim):
+    sim = make_sim(room_world, "turtlebot3_burger")
+    assert "clamped" in sim.set_command(5.0, 0.0)
+    assert sim.drive.command.linear_mps == sim.robot.max_linear_mps
+    assert "not finite" in sim.set_command(float("nan"), 0.0)
+    assert sim.drive.command.linear_mps == 0.0
+    assert "not finite" in sim.set_command(0.1, float("inf"))
+    # one command, then silence: the base stops 0.5 s later (plus deceleration)
+    sim.set_command(0.2, 0.0)
+    for _ in range(200):
+        sim.step()
+    assert sim.twist == (0.0, 0.0)
+    assert 0.08 < sim.pose[0] - 1.0 < 0.13      # ~0.5 s at up to 0.2 m/s
+
+
+def test_acceleration_limit():
+    robot = load_robot("turtlebot2")
+    d = DiffDrive(robot, cmd_timeout_s=0.5)
+    d.set_command(0.7, 0.0, 0.0)
+    v, _ = d.step(0.0, 0.1)
+    assert v == pytest.approx(robot.max_linear_accel_mps2 * 0.1)
+
+
+@pytest.mark.parametrize("robot", ["turtlebot3_burger", "turtlebot3_waffle_pi", "turtlebot2"])
+def test_walls_stop_the_robot_and_count_contacts(room_world, make_sim, robot):
+    sim = make_sim(room_world, robot)
+    drive(sim, 0.2, 0.0, 25.0)                   # 5 m of commands toward the wall at x = 4.1
+    spec = sim.robot
+    front = spec.footprint_offset_x_m + 0.5 * spec.footprint_length_m if not spec.is_round else spec.radius_m
+    assert sim.pose[0] + front <= 4.1 + 1e-3     # never through the wall
+    assert sim.pose[0] + front > 4.1 - 0.01      # but right up against it
+    assert sim.collisions == 1                   # one contact episode, however long it pushes
+    if spec.bumpers:
+        assert [(e.side, e.pressed) for e in sim.bumper_events] == [(1, True)]   # centre pressed
+        drive(sim, -0.1, 0.0, 1.0)
+        assert [(e.side, e.pressed) for e in sim.bumper_events][-1] == (1, False)
+    else:
+        assert sim.bumper_events == []
+
+
+def test_side_bumper(room_world, make_sim):
+    sim = make_sim(room_world, "turtlebot2")
+    sim.set_pose(3.5, 1.5, math.radians(-50))    # wall at x = 4.1 is on the robot's left front
+    drive(sim, 0.2, 0.0, 15.0)
+    assert sim.bumper_events and sim.bumper_events[0].side == 0 and sim.bumper_events[0].pressed
+
+
+def test_odometry_drift_matches_configured_slip():
+    # Straight D = 2 m in 1 cm steps; each wheel's travel error has variance k^2 * D.
+    # x = (dl + dr) / 2      ->  var = k^2 * D / 2,   std = k * sqrt(D / 2)  = 0.002 m
+    # yaw = (dr - dl) / L    ->  var = 2 k^2 D / L^2, std = k * sqrt(2 D) / L = 0.025 rad
+    # (the heading error also shortens x by ~D * yaw^2 / 6 ~ 2e-4 m: negligible here)
+    k, L, D, n = 0.002, 0.16, 2.0, 400
+    rng = np.random.default_rng(7)
+    ends = []
+    for _ in range(n):
+        odo = WheelOdometry(L, k, rng)
+        for _ in range(200):
+            odo.update(0.01, 0.0, 0.05)
+        ends.append((odo.x, odo.yaw))
+    ends = np.array(ends)
+    x_std_expected = k * math.sqrt(D / 2)
+    yaw_std_expected = k * math.sqrt(2 * D) / L
+    assert abs(np.mean(ends[:, 0]) - D) < 0.0006
+    assert np.std(ends[:, 0]) == pytest.approx(x_std_expected, rel=0.12)
+    assert np.std(ends[:, 1]) == pytest.approx(yaw_std_expected, rel=0.12)
+
+
+def test_noisy_odometry_drifts_but_ground_truth_does_not(room_world, make_sim):
+    a = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.05, seed=1)
+    b = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.05, seed=1)
+    for sim in (a, b):
+        drive(sim, 0.2, 0.5, 10.0)
+    assert np.array_equal(a.pose, b.pose) and a.odom.x == b.odom.x      # same seed, same run
+    err = math.hypot(a.odom.x - (a.pose[0] - 1.0), a.odom.y - (a.pose[1] - 1.5))
+    assert err > 1e-3
