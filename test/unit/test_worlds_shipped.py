@@ -8,7 +8,7 @@ from scipy import ndimage
 from turtlebot_recon.sim import load_world, worldgen
 
 SPEC = {  # name: (min width m, min height m, min tags)
-    "house": (15.0, 10.0, 6),
+    "house": (14.5, 9.5, 6),        # a 15 x 10 m building, walls included
     "maze": (7.0, 7.0, 3),
     "office": (30.0, 20.0, 8),
     "arena": (15.0, 15.0, 4),
