@@ -106,3 +106,23 @@ def camera_info(spec: CameraSpec, k: np.ndarray, t_s: float) -> CameraInfo:
     m.R = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0]
     m.P = [k[0, 0], 0.0, k[0, 2], 0.0, 0.0, k[1, 1], k[1, 2], 0.0, 0.0, 0.0, 1.0, 0.0]
     return m
+
+
+def become_clock_source() -> None:
+    """Make this node the source of sim time instead of a subscriber to /clock.
+
+    With /use_sim_time set, rospy subscribes every node to /clock; the node that publishes
+    /clock would then receive each of its own ticks over TCP (100 per sim second), which costs
+    more than the physics. The simulator instead sets rospy's time directly with ``set_now``.
+    """
+    from rospy.impl import simtime
+    sub = getattr(simtime, "_clock_sub", None)
+    if sub is not None:
+        sub.unregister()
+        simtime._clock_sub = None
+
+
+def set_now(t_s: float) -> None:
+    """rospy's notion of 'now' for a node that is the clock source (see become_clock_source)."""
+    from rospy.rostime import _set_rostime
+    _set_rostime(stamp(t_s))
