@@ -10,9 +10,12 @@ a collision (and a bumper press on robots that have bumpers).
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import os
 import pkgutil
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -69,6 +72,21 @@ class BumperEvent:
     stamp_s: float
 
 
+@contextlib.contextmanager
+def _quiet_c_stdout():
+    """Send what C code writes to stdout to /dev/null for the duration."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
 def yaw_quaternion(yaw: float) -> tuple:
     return (0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
 
@@ -121,8 +139,9 @@ class Simulator:
     def _load_egl(self) -> None:
         """PyBullet's EGL renderer (Mesa llvmpipe here) is ~4x faster than TinyRenderer."""
         plugin = pkgutil.get_loader("eglRenderer")
-        pid = -1 if plugin is None else pb.loadPlugin(plugin.get_filename(), "_eglRendererPlugin",
-                                                       physicsClientId=self.client)
+        with _quiet_c_stdout():   # the plugin prints its GL driver details on stdout
+            pid = -1 if plugin is None else pb.loadPlugin(plugin.get_filename(), "_eglRendererPlugin",
+                                                           physicsClientId=self.client)
         if pid < 0:
             log.warning("EGL renderer plugin did not load; the camera uses TinyRenderer (slower)")
         else:
