@@ -116,6 +116,7 @@ class Simulator:
         self._clearance = world.clearance()
         self.pose = np.array(world.start, dtype=float)   # true (x, y, yaw) in the world frame
         self.twist = (0.0, 0.0)                          # true body twist (m/s, rad/s)
+        self.gyro_rate = 0.0                             # IMU yaw rate: true rate + noise (rad/s)
         self.gyro_yaw = 0.0                              # IMU orientation, integrated gyro
         self.collisions = 0
         self._contact = False
@@ -293,7 +294,8 @@ class Simulator:
         self.twist = (forward / self.dt, turn / self.dt)
         self.distance_m += abs(forward)
         self.pose = moved
-        self.gyro_yaw = wrap_angle(self.gyro_yaw + self.imu_yaw_rate() * self.dt)
+        self.gyro_rate = self.twist[1] + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps)
+        self.gyro_yaw = wrap_angle(self.gyro_yaw + self.gyro_rate * self.dt)
         self.steps += 1
         return [name for name, period in self._periods.items() if self.steps % period == 0]
 
@@ -357,9 +359,6 @@ class Simulator:
         valid = np.isfinite(r) & (noisy >= lid.range_min_m) & (noisy <= lid.range_max_m)
         valid &= self._rng_lidar.random(r.shape) >= lid.dropout_prob
         return np.where(valid, noisy, lid.invalid_value).astype(np.float32)
-
-    def imu_yaw_rate(self) -> float:
-        return self.twist[1] + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps)
 
     def camera_matrix(self) -> np.ndarray:
         cam = self.robot.camera
