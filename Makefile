@@ -18,13 +18,14 @@ DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run sim bench-sim worlds clean
+.PHONY: help setup build test run sim bench-sim bench-map worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         simulate WORLD=$(WORLD) headless with a scripted drive (exploration comes later)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
+	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -65,6 +66,9 @@ sim: build
 
 bench-sim: build
 	$(ENV) python test/benchmarks/bench_sim.py
+
+bench-map: build
+	$(ENV) python test/benchmarks/bench_map.py
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds

@@ -3,6 +3,7 @@ from setuptools import setup
 from catkin_pkg.python_setup import generate_distutils_setup
 
 setup(**generate_distutils_setup(
-    packages=["turtlebot_recon", "turtlebot_recon.sim", "turtlebot_recon.ros"],
+    packages=["turtlebot_recon", "turtlebot_recon.sim", "turtlebot_recon.ros", "turtlebot_recon.mapping",
+              "turtlebot_recon.planning", "turtlebot_recon.evaluation"],
     package_dir={"": "src"},
 ))

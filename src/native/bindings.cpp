@@ -11,6 +11,10 @@
 namespace py = pybind11;
 using namespace turtlebot_recon;
 
+// Areas, one .cpp each (src/native/<area>.cpp).
+void register_mapping(py::module_& m);    // occupancy_grid.cpp
+void register_planning(py::module_& m);   // planning.cpp
+
 namespace {
 
 py::array_t<std::int32_t> py_merge_rectangles(
@@ -51,4 +55,6 @@ PYBIND11_MODULE(_native, m) {
         "Cover the non-zero cells of a 2-D uint8 mask with disjoint rectangles.\n"
         "Returns an (N, 4) int32 array of (row, col, rows, cols), rows counted from the top.");
   m.def("build_info", &build_info, "Versions of the C++ libraries the module was built against.");
+  register_mapping(m);
+  register_planning(m);
 }

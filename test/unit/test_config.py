@@ -57,3 +57,12 @@ def test_core_never_imports_rospy():
     offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
                  if p.parent.name != "ros" and re.search(r"^\s*(import|from)\s+rospy", p.read_text(), re.M)]
     assert offenders == []
+
+
+def test_mapper_yaml_declares_every_setting_once():
+    from turtlebot_recon.mapping.grid import GridSettings
+    from turtlebot_recon.mapping.mapper import MapperSettings
+    data = load_yaml(TOP / "config" / "mapper.yaml")
+    assert set(data) == {f.name for f in dataclasses.fields(MapperSettings)}
+    assert set(data["grid"]) == {f.name for f in dataclasses.fields(GridSettings)}
+    assert from_dict(MapperSettings, data, "mapper.yaml") == MapperSettings()   # YAML = defaults

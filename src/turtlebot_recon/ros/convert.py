@@ -126,3 +126,32 @@ def set_now(t_s: float) -> None:
     """rospy's notion of 'now' for a node that is the clock source (see become_clock_source)."""
     from rospy.rostime import _set_rostime
     _set_rostime(stamp(t_s))
+
+
+def occupancy_grid(values: np.ndarray, resolution: float, origin_xy: tuple, frame: str,
+                   t_s: float) -> "OccupancyGrid":
+    """nav_msgs/OccupancyGrid from an int8 (rows, cols) grid, row 0 at the origin."""
+    from nav_msgs.msg import OccupancyGrid
+    m = OccupancyGrid()
+    m.header.stamp, m.header.frame_id = stamp(t_s), frame
+    m.info.map_load_time = m.header.stamp
+    m.info.resolution = resolution
+    m.info.height, m.info.width = values.shape
+    m.info.origin.position.x, m.info.origin.position.y = origin_xy
+    m.info.origin.orientation.w = 1.0
+    m.data = values.astype(np.int8, copy=False).ravel().tolist()
+    return m
+
+
+def scan_data(m: LaserScan):
+    """The core's Scan from a sensor_msgs/LaserScan."""
+    from ..mapping.mapper import Scan
+    return Scan(ranges=np.asarray(m.ranges, dtype=np.float32), angle_min=m.angle_min,
+                angle_max=m.angle_max, angle_increment=m.angle_increment, range_min=m.range_min,
+                range_max=m.range_max, stamp_s=m.header.stamp.to_sec())
+
+
+def pose2d(t: TransformStamped) -> tuple:
+    """(x, y, yaw) of a transform, dropping z, roll and pitch."""
+    tr = t.transform.translation
+    return tr.x, tr.y, quaternion_to_yaw(t.transform.rotation)

@@ -1,0 +1,52 @@
+"""DESIGN §6 metrics. The robot's map frame is its start pose; only the evaluator knows the
+transform to world coordinates (``map_to_world`` = the world's start pose)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
+from ..sim.world import World
+
+
+def map_cells_in_world(shape: tuple, resolution: float, origin_xy: tuple, map_to_world: tuple) -> tuple:
+    """World (x, y) of every cell centre of a robot map, as two (rows, cols) arrays."""
+    rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
+    mx = origin_xy[0] + (cols + 0.5) * resolution
+    my = origin_xy[1] + (rows + 0.5) * resolution
+    x0, y0, yaw = map_to_world
+    c, s = math.cos(yaw), math.sin(yaw)
+    return x0 + c * mx - s * my, y0 + s * mx + c * my
+
+
+def _sample(grid: np.ndarray, world: World, wx: np.ndarray, wy: np.ndarray, outside):
+    r = np.floor((wy - world.origin[1]) / world.resolution).astype(int)
+    c = np.floor((wx - world.origin[0]) / world.resolution).astype(int)
+    inside = (r >= 0) & (r < grid.shape[0]) & (c >= 0) & (c < grid.shape[1])
+    out = np.full(wx.shape, outside, dtype=grid.dtype)
+    out[inside] = grid[r[inside], c[inside]]
+    return out
+
+
+def map_precision(occupancy: np.ndarray, resolution: float, origin_xy: tuple, world: World,
+                  map_to_world: tuple) -> dict:
+    """Map precision (DESIGN §6).
+
+    occupied: of the cells the robot marks occupied (>= 65), the fraction within one cell of a
+    true obstacle: the nearest solid edge is at most 1.5 cells from the cell centre (one cell
+    beyond the cell's own half width).
+    free: of the cells it marks free (0..25), the fraction whose centre is truly free.
+    """
+    wx, wy = map_cells_in_world(occupancy.shape, resolution, origin_xy, map_to_world)
+    occ = occupancy >= OCCUPIED_THRESH
+    free = (occupancy >= 0) & (occupancy <= FREE_THRESH)
+    clearance = _sample(world.clearance(), world, wx[occ], wy[occ], 0.0)
+    truly_free = _sample(world.free, world, wx[free], wy[free], False)
+    n_occ, n_free = int(occ.sum()), int(free.sum())
+    return {
+        "map_precision_occupied": float(np.mean(clearance <= 1.5 * resolution)) if n_occ else None,
+        "map_precision_free": float(np.mean(truly_free)) if n_free else None,
+        "cells_occupied": n_occ,
+        "cells_free": n_free,
+    }

@@ -1,0 +1,14 @@
+"""Global planning: inflated costmap, A* with visit penalty, line-of-sight shortcut.
+
+The raw native functions are re-exported for callers that need the distance field, the
+Dijkstra cost-to-come field or the nearest accessible cell (e.g. frontier goals).
+"""
+from .._native import astar, dijkstra, distance_transform, inflate, nearest_accessible, shortcut
+from .costmap import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, CostmapSettings,
+                      PlannerSettings, PlanningError, make_costmap, plan)
+
+__all__ = [
+    "FREE_SPACE", "INSCRIBED", "LETHAL", "NO_INFORMATION", "CostmapSettings", "PlannerSettings",
+    "PlanningError", "make_costmap", "plan", "astar", "dijkstra", "distance_transform", "inflate",
+    "nearest_accessible", "shortcut",
+]

@@ -1,0 +1,124 @@
+"""Mapper core: bad scans sorted and counted, map files as map_saver writes them, precision."""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import room, write_world
+from turtlebot_recon.evaluation import map_precision
+from turtlebot_recon.mapping.map_io import load_map, save_map
+from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.sim import load_world
+from turtlebot_recon.sim.simulator import SimSettings, Simulator
+
+
+def scan(ranges, angle_min=0.0, angle_max=None, inc=math.radians(1), rmin=0.12, rmax=3.5, t=1.0):
+    ranges = np.asarray(ranges, np.float32)
+    if angle_max is None:
+        angle_max = angle_min + inc * (len(ranges) - 1)
+    return Scan(ranges, angle_min, angle_max, inc, rmin, rmax, t)
+
+
+@pytest.fixture
+def mapper():
+    return Mapper(MapperSettings(), robot_radius_m=0.177)
+
+
+def test_bad_scans_are_skipped_with_a_reason(mapper):
+    assert mapper.check_scan(scan([])) == "empty"
+    assert mapper.check_scan(scan([1.0] * 10, angle_max=math.radians(100))) == "length_mismatch"
+    assert mapper.check_scan(scan([1.0] * 360, inc=float("nan"))) == "bad_header"
+    assert mapper.check_scan(scan([1.0] * 360, rmin=4.0)) == "bad_header"
+    # one beam more or less than angle_max implies is what real drivers do: accepted
+    assert mapper.check_scan(scan([1.0] * 360, angle_max=math.radians(360))) is None
+    assert mapper.skipped == {"empty": 1, "length_mismatch": 1, "bad_header": 2}
+    assert "skipped: bad_header 2, empty 1, length_mismatch 1" in mapper.diagnostics()
+
+
+def test_bad_beams_are_counted_not_inserted(mapper):
+    r = np.full(360, 2.0, np.float32)
+    r[:10] = np.nan
+    r[10:20] = np.inf          # no return
+    r[20:30] = 0.0             # LDS-01 no return
+    r[30:40] = 0.05            # too close
+    r[40:50] = 7.0             # beyond range_max: no return
+    mapper.insert(scan(r), (0.0, 0.0, 0.0))
+    assert dict(mapper.beams) == {"valid": 310, "no_return": 30, "too_close": 10, "nan": 10}
+    occ = mapper.grid.occupancy()
+    assert (occ >= 65).any() and (occ == -1).any()
+
+
+def test_time_jump_back_is_detected_once(mapper):
+    assert not mapper.time_jumped_back(10.0)
+    assert not mapper.time_jumped_back(9.5)        # small reorderings are normal
+    assert mapper.time_jumped_back(2.0)
+    assert not mapper.time_jumped_back(2.2)
+    assert mapper.skipped["time_jump_back"] == 1
+
+
+def test_save_and_reload_like_map_saver(tmp_path):
+    occ = np.full((4, 6), -1, np.int8)
+    occ[0, :] = 0
+    occ[1, 2] = 100
+    occ[2, 3] = 50             # uncertain: map_saver writes it as unknown
+    occ[3, 5] = 20             # <= 25: free
+    path = save_map(tmp_path / "m", occ, 0.05, (-1.0, 2.0))
+    text = path.read_text()
+    assert "image: m.pgm" in text and "origin: [-1.0, 2.0, 0.0]" in text
+    back, res, origin = load_map(path)
+    expected = np.full_like(occ, -1)
+    expected[0, :] = 0
+    expected[1, 2] = 100
+    expected[3, 5] = 0
+    assert res == 0.05 and origin == (-1.0, 2.0)
+    assert np.array_equal(back, expected)
+    # map_server's orientation: the PGM's last row is grid row 0 (all free here)
+    import cv2
+    assert (cv2.imread(str(tmp_path / "m.pgm"), cv2.IMREAD_UNCHANGED)[-1] == 254).all()
+
+
+def test_precision_of_a_perfect_and_a_wrong_map(tmp_path):
+    world = load_world(write_world(tmp_path, "w", room(3.0, 2.0), start=[1.0, 1.0, 0.5]))
+    # A perfect map in the robot's frame (start pose = map origin): sample the world there.
+    x0, y0, yaw = world.start
+    res = 0.05
+    rows, cols = np.mgrid[0:80, 0:100]
+    mx, my = -2.5 + (cols + 0.5) * res, -2.0 + (rows + 0.5) * res
+    wx = x0 + math.cos(yaw) * mx - math.sin(yaw) * my
+    wy = y0 + math.sin(yaw) * mx + math.cos(yaw) * my
+    truth = np.array([[world.is_free(a, b) for a, b in zip(ra, rb)] for ra, rb in zip(wx, wy)])
+    occ = np.where(truth, 0, 100).astype(np.int8)
+    p = map_precision(occ, res, (-2.5, -2.0), world, world.start)
+    assert p["map_precision_free"] == 1.0 and p["map_precision_occupied"] == 1.0
+    # Mark a free square in the middle of the room occupied: those cells are wrong.
+    # The square spans +-0.25 m around the start, >= 0.5 m from every wall: 100 wrong cells,
+    # so precision = correct / (correct + 100).
+    bad = occ.copy()
+    bad[35:45, 45:55] = 100
+    p = map_precision(bad, res, (-2.5, -2.0), world, world.start)
+    correct = int((occ == 100).sum())
+    assert p["map_precision_occupied"] == pytest.approx(correct / (correct + 100))
+    assert p["map_precision_free"] == 1.0
+
+
+def test_mapping_a_simulated_room_is_precise(tmp_path, mapper):
+    path = write_world(tmp_path, "r", room(3.0, 2.0), start=[1.0, 1.0, 0.0])
+    world = load_world(path)
+    sim = Simulator(world, load_robot("turtlebot3_burger"), SimSettings(camera_rate_hz=0.0, seed=2))
+    lid = sim.robot.lidar
+    for k in range(12):
+        sim.set_pose(1.0 + 0.1 * k, 1.0, 0.5 * k)
+        x, y, yaw = sim.sensor_pose(lid.x_m, lid.y_m)
+        sx, sy, syaw = world.start
+        # the map frame is the start pose
+        c, s = math.cos(-syaw), math.sin(-syaw)
+        pose = (c * (x - sx) - s * (y - sy), s * (x - sx) + c * (y - sy), yaw - syaw)
+        r = sim.scan()
+        mapper.insert(Scan(r, lid.angle_min_rad, lid.angle_max_rad, lid.angle_increment_rad,
+                           lid.range_min_m, lid.range_max_m, float(k)), pose)
+    sim.close()
+    g = mapper.grid
+    p = map_precision(g.occupancy(), g.resolution, (g.origin_x, g.origin_y), world, world.start)
+    assert p["map_precision_occupied"] >= 0.98 and p["map_precision_free"] >= 0.98
+    assert p["cells_free"] * g.resolution ** 2 > 4.0      # most of the 6 m^2 room seen

@@ -1,0 +1,493 @@
+"""The C++ log-odds occupancy grid against a plain-Python reference and hand-worked numbers.
+
+Log-odds used throughout (defaults p_hit 0.7, p_miss 0.4, p_min 0.12, p_max 0.97):
+    l(p) = ln(p / (1 - p))
+    hit  = l(0.7)  = ln(7/3)     =  0.847298
+    miss = l(0.4)  = ln(2/3)     = -0.405465
+    min  = l(0.12) = ln(12/88)   = -1.992430
+    max  = l(0.97) = ln(97/3)    =  3.476099
+"""
+import math
+import threading
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.config import ConfigError, from_dict
+from turtlebot_recon.mapping import GridSettings, OccupancyGrid, ScanStats, make_grid
+
+HIT, MISS, L_MIN, L_MAX = 0.847298, -0.405465, -1.992430, 3.476099
+INF, NAN = math.inf, math.nan
+
+
+def logit(p):
+    return math.log(p / (1.0 - p))
+
+
+# ----------------------------------------------------------------------------------------
+# Reference implementation: plain loops over a dict of global cells (no growth needed, no numpy).
+
+def bresenham(r0, c0, r1, c1):
+    """Cells from (r0, c0) up to, not including, (r1, c1)."""
+    cells = []
+    dc, dr = abs(c1 - c0), -abs(r1 - r0)
+    sc = 1 if c0 < c1 else -1
+    sr = 1 if r0 < r1 else -1
+    err = dc + dr
+    r, c = r0, c0
+    while (r, c) != (r1, c1):
+        cells.append((r, c))
+        e2 = 2 * err
+        if e2 >= dr:
+            err += dr
+            c += sc
+        if e2 <= dc:
+            err += dc
+            r += sr
+    return cells
+
+
+def classify(r, range_min, range_max, clear_m, cap_m):
+    """(kind, reach_m, hit) of one beam, REP-117 plus the LDS-01 driver's 0.0."""
+    if math.isnan(r):
+        return "nan", None, False
+    if r == 0.0 or r > range_max:                 # +inf, 0.0, beyond range: no return
+        reach = min(clear_m, range_max)
+        return "no_return", (reach if reach > 0 else None), False
+    if r < range_min:                             # -inf, too close, negative
+        return "too_close", None, False
+    if cap_m > 0 and r > cap_m:
+        return "capped", cap_m, False
+    return "valid", r, True
+
+
+class Reference:
+    def __init__(self, resolution, origin_x, origin_y, p_hit=0.7, p_miss=0.4, p_min=0.12, p_max=0.97):
+        self.res, self.ox, self.oy = resolution, origin_x, origin_y
+        self.l_hit, self.l_miss = logit(p_hit), logit(p_miss)
+        self.l_min, self.l_max = logit(p_min), logit(p_max)
+        self.cells = {}   # global (row, col) -> log-odds
+
+    def global_cell(self, x, y):
+        return math.floor((y - self.oy) / self.res), math.floor((x - self.ox) / self.res)
+
+    def update(self, cell, delta):
+        value = self.cells.get(cell, 0.0) + delta
+        self.cells[cell] = min(max(value, self.l_min), self.l_max)
+
+    def insert_scan(self, sx, sy, syaw, ranges, angle_min, angle_inc, range_min, range_max,
+                    clear_m=0.0, cap_m=0.0):
+        stats = {"valid": 0, "no_return": 0, "capped": 0, "too_close": 0, "nan": 0}
+        sensor = self.global_cell(sx, sy)
+        rays = []
+        for i in range(len(ranges)):
+            kind, reach, hit = classify(float(ranges[i]), range_min, range_max, clear_m, cap_m)
+            stats[kind] += 1
+            if reach is None:
+                continue
+            a = syaw + angle_min + i * angle_inc
+            rays.append((self.global_cell(sx + reach * math.cos(a), sy + reach * math.sin(a)), hit))
+        for end, hit in rays:
+            for cell in bresenham(sensor[0], sensor[1], end[0], end[1]):
+                self.update(cell, self.l_miss)
+            if hit:
+                self.update(end, self.l_hit)
+        return stats
+
+    def as_array(self, grid):
+        """The reference cells laid out like ``grid`` (asserting that all of them fit)."""
+        row_off = round((grid.origin_y - self.oy) / self.res)
+        col_off = round((grid.origin_x - self.ox) / self.res)
+        out = np.full((grid.rows, grid.cols), np.nan)
+        for (r, c), value in self.cells.items():
+            assert 0 <= r - row_off < grid.rows and 0 <= c - col_off < grid.cols, (r, c)
+            out[r - row_off, c - col_off] = value
+        return out
+
+
+def ros_occupancy(logodds):
+    out = np.full(logodds.shape, -1, np.int8)
+    known = ~np.isnan(logodds)
+    out[known] = np.floor(100.0 * (1.0 - 1.0 / (1.0 + np.exp(logodds[known]))) + 0.5)
+    return out
+
+
+def scan(grid, ranges, x=0.05, y=0.05, yaw=0.0, inc=0.01, range_min=0.12, range_max=3.5, **kw):
+    return grid.insert_scan(x, y, yaw, np.array(ranges, np.float32), 0.0, inc, range_min, range_max, **kw)
+
+
+def known_cells(grid):
+    """{(row, col): log-odds} of every observed cell."""
+    lo = grid.logodds()
+    return {(int(r), int(c)): float(lo[r, c]) for r, c in zip(*np.nonzero(~np.isnan(lo)))}
+
+
+# ----------------------------------------------------------------------------------------
+# The reference itself draws proper lines.
+
+def test_reference_bresenham_is_a_connected_line_close_to_the_ideal():
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        r0, c0, r1, c1 = (int(v) for v in rng.integers(-30, 30, 4))
+        cells = bresenham(r0, c0, r1, c1) + [(r1, c1)]
+        assert cells[0] == (r0, c0)
+        assert len(cells) == max(abs(r1 - r0), abs(c1 - c0)) + 1       # one cell per main-axis step
+        for (ra, ca), (rb, cb) in zip(cells, cells[1:]):
+            assert max(abs(rb - ra), abs(cb - ca)) == 1                # 8-connected
+        length = math.hypot(r1 - r0, c1 - c0) or 1.0
+        for r, c in cells:                                             # within 1/sqrt(2) cell of the line
+            assert abs((r - r0) * (c1 - c0) - (c - c0) * (r1 - r0)) / length <= 0.7072
+
+
+# ----------------------------------------------------------------------------------------
+# C++ == reference on random scans.
+
+def random_ranges(rng, n, range_min, range_max):
+    kinds = rng.choice(["valid", "nan", "inf", "-inf", "zero", "close", "far", "neg"], n,
+                       p=[0.55, 0.06, 0.08, 0.05, 0.08, 0.06, 0.08, 0.04])
+    out = []
+    for k in kinds:
+        out.append({"valid": rng.uniform(range_min, range_max), "nan": NAN, "inf": INF, "-inf": -INF,
+                    "zero": 0.0, "close": rng.uniform(0.001, range_min * 0.99),
+                    "far": rng.uniform(range_max * 1.01, 1e6), "neg": -rng.uniform(0.1, 5.0)}[k])
+    return np.array(out, np.float32)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_matches_reference_on_random_scans(seed):
+    rng = np.random.default_rng(seed)
+    res = float(rng.choice([0.05, 0.07, 0.1]))
+    ox, oy = float(rng.uniform(-2, 0)), float(rng.uniform(-2, 0))
+    p = dict(p_hit=float(rng.uniform(0.55, 0.9)), p_miss=float(rng.uniform(0.1, 0.45)),
+             p_min=0.12, p_max=0.97)
+    grid = OccupancyGrid(res, width_m=3.0, height_m=3.0, origin_x=ox, origin_y=oy,
+                         grow_margin_m=float(rng.choice([0.0, 0.5, 2.0])), **p)
+    ref = Reference(res, ox, oy, **p)
+    for _ in range(8):
+        sx, sy = (float(v) for v in rng.uniform(-6, 6, 2))      # often outside: the grid grows
+        syaw = float(rng.uniform(-math.pi, math.pi))
+        n = int(rng.integers(0, 150))
+        range_min, range_max = 0.12, float(rng.uniform(1.0, 4.0))
+        ranges = random_ranges(rng, n, range_min, range_max)
+        angle_min, inc = float(rng.uniform(-math.pi, 0)), float(rng.uniform(-0.05, 0.1))
+        clear_m, cap_m = float(rng.choice([0.0, 0.7, 10.0])), float(rng.choice([0.0, 1.5]))
+        stats = grid.insert_scan(sx, sy, syaw, ranges, angle_min, inc, range_min, range_max,
+                                 no_return_clear_m=clear_m, range_cap_m=cap_m)
+        expected_stats = ref.insert_scan(sx, sy, syaw, ranges, angle_min, inc, range_min, range_max,
+                                         clear_m, cap_m)
+        assert {k: getattr(stats, k) for k in expected_stats} == expected_stats
+        assert stats.total == n
+        lo = grid.logodds()
+        expected = ref.as_array(grid)
+        np.testing.assert_array_equal(np.isnan(lo), np.isnan(expected))    # same cells observed
+        np.testing.assert_allclose(lo, expected, atol=1e-4)                 # float32 vs double sums
+    assert np.array_equal(grid.occupancy(), ros_occupancy(grid.logodds()))
+    assert grid.grow_count > 0   # the random poses left the 3 x 3 m start
+
+
+# ----------------------------------------------------------------------------------------
+# Hand-worked cases (0.1 m cells, origin (-5, -5): the sensor at (0.05, 0.05) is cell (50, 50)).
+
+def test_one_beam_along_x_misses_then_hits_then_clamps():
+    grid = OccupancyGrid(0.1)
+    # 1.0 m along +x from x = 0.05 ends at x = 1.05: column floor(6.05 / 0.1) = 60.
+    # Misses on columns 50..59 (the sensor cell included), a hit on column 60, nothing else.
+    stats = scan(grid, [1.0])
+    assert (stats.valid, stats.total) == (1, 1)
+    cells = known_cells(grid)
+    assert sorted(cells) == [(50, c) for c in range(50, 61)]
+    for c in range(50, 60):
+        assert cells[(50, c)] == pytest.approx(MISS, abs=1e-6)
+    assert cells[(50, 60)] == pytest.approx(HIT, abs=1e-6)
+    # After 4 scans: 4 * -0.405465 = -1.621860 (above the clamp), 4 * 0.847298 = 3.389191.
+    for _ in range(3):
+        scan(grid, [1.0])
+    lo = grid.logodds()
+    assert lo[50, 55] == pytest.approx(-1.621860, abs=1e-5)
+    assert lo[50, 60] == pytest.approx(3.389191, abs=1e-5)
+    # After 20 scans: -8.109 and 16.946 are clamped to l(0.12) = -1.992430 and l(0.97) = 3.476099.
+    for _ in range(16):
+        scan(grid, [1.0])
+    lo = grid.logodds()
+    np.testing.assert_allclose(lo[50, 50:60], L_MIN, atol=1e-6)
+    assert lo[50, 60] == pytest.approx(L_MAX, abs=1e-6)
+    assert np.isnan(lo[50, 61]) and np.isnan(lo[51, 55])
+    # A hit on the floor: -1.992430 + 0.847298 = -1.145132 (the clamp lets a cell change its mind).
+    scan(grid, [0.5])  # ends at x = 0.55: column 55 gets a hit
+    assert grid.logodds()[50, 55] == pytest.approx(L_MIN + HIT, abs=1e-5)
+
+
+def test_diagonal_beam_and_a_cell_both_hit_and_crossed():
+    grid = OccupancyGrid(0.1)
+    # 45 deg, 0.5 * sqrt(2) m: ends at (0.55, 0.55) = cell (55, 55); misses on the diagonal 50..54.
+    scan(grid, [0.5 * math.sqrt(2)], yaw=math.pi / 4)
+    cells = known_cells(grid)
+    assert sorted(cells) == [(k, k) for k in range(50, 56)]
+    assert cells[(55, 55)] == pytest.approx(HIT, abs=1e-6)
+    # Two beams along +x in one scan: 0.5 m hits column 55, 1.0 m crosses it.
+    # Column 55: hit + miss = 0.847298 - 0.405465 = 0.441833; columns 50..54: two misses = -0.810930.
+    grid.clear()
+    scan(grid, [0.5, 1.0], inc=0.0)
+    lo = grid.logodds()
+    assert lo[50, 55] == pytest.approx(0.441833, abs=1e-5)
+    np.testing.assert_allclose(lo[50, 50:55], 2 * MISS, atol=1e-5)
+    assert lo[50, 60] == pytest.approx(HIT, abs=1e-6)
+
+
+def test_beam_classes_and_clearing():
+    grid = OccupancyGrid(0.1)
+    ranges = [NAN, -INF, 0.05, -1.0, INF, 0.0, 10.0, 1.0, 3.0]
+    stats = scan(grid, ranges, inc=0.0, range_min=0.12, range_max=3.5)
+    # NaN; -inf, 0.05 < range_min, -1.0; +inf, 0.0, 10.0 > range_max; 1.0, 3.0
+    assert (stats.nan, stats.too_close, stats.no_return, stats.valid) == (1, 3, 3, 2)
+    assert (stats.capped, stats.total) == (0, 9)
+    # no clearing, no cap: only the two valid beams (1.0 m and 3.0 m along +x) wrote anything
+    assert max(c for _, c in known_cells(grid)) == 80       # 3.0 m from x = 0.05: column 80
+    assert ScanStats is type(stats) and "no_return=3" in repr(stats)
+    with pytest.raises(AttributeError):
+        stats.valid = 5
+
+    # +inf with no_return_clear_m = 0.5: clears to x = 0.55 (column 55): misses 50..54, no hit.
+    grid.clear()
+    stats = scan(grid, [INF], no_return_clear_m=0.5)
+    assert stats.no_return == 1
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 55)]
+    assert all(v == pytest.approx(MISS, abs=1e-6) for v in known_cells(grid).values())
+    # 0.0 (LDS-01's no return) with clearing 10 m: limited to range_max 3.5 m: column 85, misses 50..84.
+    grid.clear()
+    scan(grid, [0.0], no_return_clear_m=10.0)
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 85)]
+    # capped at 2.0 m: a 3.0 m return clears to x = 2.05 (column 70), no hit anywhere.
+    grid.clear()
+    stats = scan(grid, [3.0], range_cap_m=2.0)
+    assert (stats.capped, stats.valid) == (1, 0)
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 70)]
+    assert max(known_cells(grid).values()) < 0
+    # at the cap exactly it is still a valid hit
+    grid.clear()
+    assert scan(grid, [2.0], range_cap_m=2.0).valid == 1
+
+
+def test_empty_and_all_invalid_scans_change_nothing():
+    grid = OccupancyGrid(0.1)
+    stats = grid.insert_scan(50.0, 50.0, 0.0, np.zeros(0, np.float32), 0.0, 0.01, 0.12, 3.5)
+    assert (stats.valid, stats.no_return, stats.capped, stats.too_close, stats.nan, stats.total) == (0,) * 6
+    stats = scan(grid, [NAN, -INF, INF, 0.0], x=50.0, y=50.0)
+    assert (stats.nan, stats.too_close, stats.no_return) == (1, 1, 2)
+    assert np.isnan(grid.logodds()).all() and grid.grow_count == 0 and (grid.rows, grid.cols) == (100, 100)
+
+
+def test_ranges_of_any_float_dtype_and_bad_arguments():
+    a, b = OccupancyGrid(0.1), OccupancyGrid(0.1)
+    a.insert_scan(0.05, 0.05, 0.3, np.array([1.0, 2.0, 3.0], np.float32), 0.0, 0.2, 0.12, 3.5)
+    b.insert_scan(0.05, 0.05, 0.3, [1.0, 2.0, 3.0], 0.0, 0.2, 0.12, 3.5)   # float64 list: cast
+    np.testing.assert_array_equal(a.logodds(), b.logodds())
+    with pytest.raises(ValueError, match="1-D"):
+        a.insert_scan(0.0, 0.0, 0.0, np.ones((2, 3), np.float32), 0.0, 0.01, 0.12, 3.5)
+    with pytest.raises(ValueError, match="pose"):
+        a.insert_scan(NAN, 0.0, 0.0, np.ones(3, np.float32), 0.0, 0.01, 0.12, 3.5)
+    with pytest.raises(ValueError, match="range_max"):
+        a.insert_scan(0.0, 0.0, 0.0, np.ones(3, np.float32), 0.0, 0.01, 0.12, INF)
+    # a "valid" 1e7 m return would need a grid of 100 x 1e8 cells: refused, grid untouched
+    with pytest.raises(ValueError, match="too large"):
+        a.insert_scan(0.0, 0.0, 0.0, np.array([1e7], np.float32), 0.0, 0.01, 0.12, 1e9)
+    assert a.grow_count == 0
+
+
+# ----------------------------------------------------------------------------------------
+# Growth.
+
+def test_growth_moves_origin_by_whole_cells_and_keeps_cells_in_place():
+    grid = OccupancyGrid(0.1, width_m=2.0, height_m=2.0, origin_x=-1.0, origin_y=-1.0, grow_margin_m=0.5)
+    assert (grid.rows, grid.cols, grid.grow_count) == (20, 20, 0)
+    scan(grid, [0.5], yaw=math.pi / 2)       # inside: (0.05, 0.05) -> (0.05, 0.55), no growth
+    assert grid.grow_count == 0
+    before = {(x, y): grid.logodds()[grid.cell(x, y)] for x in (0.05,) for y in np.arange(0.05, 0.6, 0.1)}
+
+    # Sensor at x = 5.05 (global column floor(6.05 / 0.1) = 60), beam to x = 6.05 (column 70):
+    # grows to the right only, to column 70 + 1 + 5 margin cells = 76 columns; origin unchanged.
+    scan(grid, [1.0], x=5.05)
+    assert (grid.grow_count, grid.rows, grid.cols) == (1, 20, 76)
+    assert (grid.origin_x, grid.origin_y) == (-1.0, -1.0)
+    # Sensor at (-3.05, -3.05): column / row floor(-2.05 / 0.1) = -21, beam to x = -2.55 (col -16).
+    # Grows left and down to -21 - 5 = -26: origin (-1 - 2.6, -1 - 2.6) = (-3.6, -3.6).
+    scan(grid, [0.5], x=-3.05, y=-3.05)
+    assert (grid.grow_count, grid.rows, grid.cols) == (2, 46, 102)
+    assert grid.origin_x == pytest.approx(-3.6) and grid.origin_y == pytest.approx(-3.6)
+    for (x, y), value in before.items():            # same world point, same value
+        assert grid.logodds()[grid.cell(x, y)] == value
+    assert grid.cell(0.05, 0.05) == (36, 36) and grid.cell(-3.55, -3.55) == (0, 0)
+    # Inside again: no growth.
+    scan(grid, [1.0], x=0.0, y=0.0, yaw=1.0)
+    assert grid.grow_count == 2
+
+
+def test_scan_far_outside_grows_once_and_everything_lands_inside():
+    grid = OccupancyGrid(0.05)
+    ranges = np.full(360, 3.5, np.float32)
+    grid.insert_scan(100.0, -80.0, 0.0, ranges, 0.0, 2 * math.pi / 360, 0.12, 3.5)
+    assert grid.grow_count == 1
+    r, c = grid.cell(100.0, -80.0)
+    assert 0 <= r < grid.rows and 0 <= c < grid.cols
+    # 360 hits in a circle of 3.5 m around the sensor (some beams share a cell)
+    assert 300 <= int((grid.logodds() > 0).sum()) <= 360
+    offset = (grid.origin_x + 5.0) / 0.05
+    assert offset == pytest.approx(round(offset), abs=1e-6)      # whole cells
+
+
+# ----------------------------------------------------------------------------------------
+# Bumper marks (Kobuki: radius 0.177 m; the robot at (0.01, 0.01) keeps clear of cell edges).
+
+KOBUKI_R, LEFT, CENTRE, RIGHT = 0.177, math.pi / 3, 0.0, -math.pi / 3
+
+
+def marked_centres(grid):
+    lo = grid.logodds()
+    marked = lo == np.float32(logit(0.97))                       # set to the clamp maximum
+    assert np.isnan(lo[~marked]).all()                           # nothing else written
+    rows, cols = np.nonzero(marked)
+    return [(grid.origin_x + (c + 0.5) * grid.resolution, grid.origin_y + (r + 0.5) * grid.resolution)
+            for r, c in zip(rows, cols)]
+
+
+@pytest.mark.parametrize("yaw", [0.0, math.pi / 2, -2.5])
+@pytest.mark.parametrize("side", [LEFT, CENTRE, RIGHT])
+def test_bumper_marks_five_cells_tangent_to_the_body_on_the_bumper_side(yaw, side):
+    grid = OccupancyGrid(0.05)
+    x, y = 0.01, 0.01
+    grid.mark_bumper(x, y, yaw, side, KOBUKI_R)
+    centres = marked_centres(grid)
+    assert len(centres) == 5
+    d = (math.cos(yaw + side), math.sin(yaw + side))           # towards the contact
+    for cx, cy in centres:
+        along = (cx - x) * d[0] + (cy - y) * d[1]
+        across = -(cx - x) * d[1] + (cy - y) * d[0]
+        # contact at 0.177 + 0.025 = 0.202 m ahead of the centre along d; a line of 5 cells,
+        # centred on it, stays within ~1.5 cells of that depth and within 2 cells (+ rounding)
+        # of the contact sideways
+        assert 0.202 - 0.08 < along < 0.202 + 0.08
+        assert abs(across) < 0.2
+        if side == LEFT and yaw == 0.0:
+            assert cy > y + 0.05          # left of the robot
+        if side == RIGHT and yaw == 0.0:
+            assert cy < y - 0.05
+        if side == CENTRE and yaw == 0.0:
+            assert abs(cx - 0.225) < 1e-9   # one column: x = 0.212 is column 104, centre 0.225
+    assert (grid.occupancy() == 97).sum() == 5                 # round(100 * 0.97)
+
+
+def test_bumper_cell_count_and_growth():
+    grid = OccupancyGrid(0.05, width_m=1.0, height_m=1.0, origin_x=-0.5, origin_y=-0.5, grow_margin_m=0.0)
+    grid.mark_bumper(0.01, 0.01, 0.0, CENTRE, KOBUKI_R, cells=3)
+    assert len(marked_centres(grid)) == 3 and grid.grow_count == 0
+    grid.mark_bumper(10.01, 0.01, 0.0, CENTRE, KOBUKI_R)       # far outside: grows to fit
+    assert len(marked_centres(grid)) == 8 and grid.grow_count == 1
+    with pytest.raises(ValueError):
+        grid.mark_bumper(0.0, 0.0, 0.0, 0.0, KOBUKI_R, cells=0)
+
+
+# ----------------------------------------------------------------------------------------
+# Visits.
+
+def test_visits_need_speed_and_a_new_cell():
+    grid = OccupancyGrid(0.1)
+    assert not grid.add_visit(0.01, 0.01, 0.0, 0.05)          # standing still
+    assert not grid.add_visit(0.01, 0.01, 0.04, 0.05)         # too slow
+    assert grid.add_visit(0.01, 0.01, 0.05, 0.05)             # at the threshold: counts
+    assert not grid.add_visit(0.09, 0.02, 0.2, 0.05)          # same cell (50, 50): rotating or creeping
+    assert grid.add_visit(0.11, 0.01, 0.2, 0.05)              # next cell (50, 51)
+    assert grid.add_visit(0.01, 0.01, 0.2, 0.05)              # back: counts again
+    v = grid.visits()
+    assert v.dtype == np.int32 and v.shape == (100, 100)
+    assert (v[50, 50], v[50, 51], v.sum()) == (2, 1, 3)
+    assert grid.add_visit(30.0, 0.0, 0.2, 0.05) and grid.grow_count == 1   # outside: grows
+    assert grid.visits()[grid.cell(0.01, 0.01)] == 2                       # kept in place
+    grid.clear()
+    assert grid.visits().sum() == 0 and np.isnan(grid.logodds()).all()
+    assert grid.add_visit(30.0, 0.0, 0.2, 0.05)              # clear() forgets the last cell too
+
+
+# ----------------------------------------------------------------------------------------
+# occupancy(): ROS values.
+
+def test_occupancy_values():
+    grid = OccupancyGrid(0.1, p_min=0.001, p_max=0.999)
+    occ = grid.occupancy()
+    assert occ.dtype == np.int8 and occ.shape == (100, 100) and (occ == -1).all()
+    scan(grid, [1.0])
+    occ = grid.occupancy()
+    # one miss: p = 0.4 -> 40; one hit: p = 0.7 -> 70; untouched: -1
+    assert (occ[50, 50], occ[50, 59], occ[50, 60], occ[50, 61], occ[0, 0]) == (40, 40, 70, -1, -1)
+    for _ in range(19):
+        scan(grid, [1.0])
+    occ = grid.occupancy()
+    # 20 misses: -8.11 clamps at l(0.001) -> p 0.001 -> round(0.1) = 0;
+    # 20 hits: 16.9 clamps at l(0.999) -> p 0.999 -> round(99.9) = 100
+    assert (occ[50, 50], occ[50, 60]) == (0, 100)
+    # a hit and a miss: l = 0.441833, p = 1 - 1 / (1 + e^0.441833) = 0.608696 -> 61
+    grid.clear()
+    scan(grid, [0.5, 1.0], inc=0.0)
+    assert grid.occupancy()[50, 55] == 61
+
+
+# ----------------------------------------------------------------------------------------
+# Construction, settings, repr, threads.
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(resolution=0.0), "resolution"),
+    (dict(resolution=-0.1), "resolution"),
+    (dict(resolution=0.1, p_hit=0.5), "p_hit"),
+    (dict(resolution=0.1, p_hit=1.0), "p_hit"),
+    (dict(resolution=0.1, p_miss=0.5), "p_miss"),
+    (dict(resolution=0.1, p_miss=0.0), "p_miss"),
+    (dict(resolution=0.1, p_min=0.5, p_max=0.4), "p_min"),
+    (dict(resolution=0.1, p_min=0.0), "p_min"),
+    (dict(resolution=0.1, p_max=1.0), "p_max"),
+    (dict(resolution=0.1, width_m=0.0), "width_m"),
+])
+def test_constructor_rejects_bad_settings(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        OccupancyGrid(**kwargs)
+
+
+def test_grid_settings_validate_and_make_grid():
+    settings = from_dict(GridSettings, {"resolution": 0.1, "origin_x": -2.0, "width_m": 4.0}, "src")
+    grid = make_grid(settings)
+    assert (grid.resolution, grid.origin_x, grid.origin_y, grid.cols, grid.rows) == (0.1, -2.0, -5.0, 40, 100)
+    assert repr(grid) == "OccupancyGrid(rows=100, cols=40, resolution=0.1, origin=(-2, -5), grow_count=0)"
+    with pytest.raises(ConfigError, match="src/p_hit"):
+        from_dict(GridSettings, {"p_hit": 0.4}, "src")
+    with pytest.raises(ConfigError, match="src/p_min"):
+        from_dict(GridSettings, {"p_min": 0.9, "p_max": 0.8}, "src")
+    with pytest.raises(ConfigError, match="src/resolution"):
+        from_dict(GridSettings, {"resolution": 0.0}, "src")
+    with pytest.raises(ConfigError, match="src/range_cap_m"):
+        from_dict(GridSettings, {"range_cap_m": -1.0}, "src")
+    with pytest.raises(ConfigError, match="src/bumper_cells"):
+        from_dict(GridSettings, {"bumper_cells": 0}, "src")
+    d = GridSettings()
+    grid = make_grid(d)
+    assert (grid.resolution, grid.rows, grid.cols, grid.origin_x) == (d.resolution, 200, 200, d.origin_x)
+
+
+def test_scans_and_reads_from_two_threads():
+    """insert_scan releases the GIL: a reader thread must see whole grids, never a torn one."""
+    grid = OccupancyGrid(0.05, width_m=1.0, height_m=1.0, origin_x=-0.5, origin_y=-0.5, grow_margin_m=0.0)
+    ranges = np.full(360, 3.5, np.float32)
+    done, shapes = threading.Event(), []
+
+    def reader():
+        while not done.is_set():
+            occ = grid.occupancy()
+            shapes.append(occ.shape)
+            assert ((occ == -1) | ((occ >= 12) & (occ <= 97))).all()
+
+    t = threading.Thread(target=reader)
+    t.start()
+    try:
+        for k in range(60):   # walk away so that the grid keeps growing
+            grid.insert_scan(0.5 * k, 0.1 * k, 0.1 * k, ranges, 0.0, 2 * math.pi / 360, 0.12, 3.5)
+    finally:
+        done.set()
+        t.join()
+    assert len(set(shapes)) > 1 and grid.grow_count > 5   # the reader saw the grid grow
