@@ -51,7 +51,7 @@ def test_bad_beams_are_counted_not_inserted(mapper):
 
 def test_time_jump_back_is_detected_once(mapper):
     assert not mapper.time_jumped_back(10.0)
-    assert not mapper.time_jumped_back(9.5)        # small reorderings are normal
+    assert not mapper.time_jumped_back(9.5)        # less than a second back: not a restart
     assert mapper.time_jumped_back(2.0)
     assert not mapper.time_jumped_back(2.2)
     assert mapper.skipped["time_jump_back"] == 1

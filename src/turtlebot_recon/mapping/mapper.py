@@ -17,7 +17,7 @@ from .grid import GridSettings, make_grid
 
 # Kobuki bumpers (kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2): body angle of each centre.
 BUMPER_ANGLE_RAD = {0: math.pi / 3, 1: 0.0, 2: -math.pi / 3}
-TIME_JUMP_BACK_S = 1.0   # a stamp this much older than the last one means the clock restarted
+TIME_JUMP_BACK_S = 1.0   # the clock going back this far means a restarted simulation or bag
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class Mapper:
         self.skipped = Counter()     # whole scans ignored, by reason
         self.beams = Counter()       # beams by class (valid, no_return, capped, too_close, nan)
         self.scans = 0
-        self.last_stamp_s = -math.inf
+        self.last_clock_s = -math.inf
 
     def check_scan(self, scan: Scan) -> str | None:
         """Why a scan cannot be used (a reason key), or None. Counts the reason."""
@@ -77,10 +77,13 @@ class Mapper:
             self.skipped[reason] += 1
         return reason
 
-    def time_jumped_back(self, stamp_s: float) -> bool:
-        """True (once) when the clock went backwards, e.g. a restarted simulation or bag."""
-        jumped = stamp_s < self.last_stamp_s - TIME_JUMP_BACK_S
-        self.last_stamp_s = stamp_s
+    def time_jumped_back(self, now_s: float) -> bool:
+        """True (once) when the clock went backwards, e.g. a restarted simulation or bag.
+
+        ``now_s`` is the node's clock, not a message stamp: a stale scan is not a clock jump.
+        """
+        jumped = now_s < self.last_clock_s - TIME_JUMP_BACK_S
+        self.last_clock_s = now_s
         if jumped:
             self.skipped["time_jump_back"] += 1
         return jumped
