@@ -1,4 +1,5 @@
-"""`make run`'s launch file end to end: the wander drives the house and writes report.json."""
+"""`make run`'s launch file end to end: the wander drives the house, the mapper maps it, and
+map.pgm/map.yaml/report.json land in the output directory."""
 import json
 import os
 import subprocess
@@ -18,3 +19,7 @@ def test_run_sim_writes_report(tmp_path):
     assert report["distance_m"] > 2.0          # it really drove (0.2 m/s cruise)
     assert report["rtf"] > 1.0                 # rtf:=0 runs faster than real time
     assert isinstance(report["collisions"], int)
+    # the mapper saved its map there, and it is precise (perfect odometry)
+    assert (tmp_path / "map.pgm").exists() and (tmp_path / "map.yaml").exists()
+    assert report["map_precision_occupied"] >= 0.98 and report["map_precision_free"] >= 0.98
+    assert report["mapped_free_m2"] > 5.0
