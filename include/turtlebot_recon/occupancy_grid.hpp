@@ -7,6 +7,9 @@
 // index (relative to the constructor's origin) and the grid is a window [offset, offset +
 // size) onto it, so growing only moves the window by whole cells.
 //
+// A scan updates each cell at most once (OctoMap's rule): one hit where any beam returned,
+// else one miss where any ray passed; see insert_scan.
+//
 // Thread safety: every public method locks the grid's mutex, so a scan thread and a map
 // publishing thread may share one grid (the Python binding releases the GIL in insert_scan).
 #pragma once
@@ -77,9 +80,13 @@ class OccupancyGrid {
   // Throws std::invalid_argument when a setting is out of range.
   explicit OccupancyGrid(const GridSettings& settings);
 
-  // Ray-casts every beam: misses from the sensor cell up to (excluding) the end cell, a hit
-  // on the end cell of a valid return; a clearing ray (no return, capped) leaves its end
-  // cell alone too. Grows the grid once first if the rays leave it. Throws
+  // Ray-casts every beam from the sensor cell to its end cell: the end cell of a valid
+  // return is a hit; the cells before it (the sensor cell included) are crossed, and so are
+  // those of a clearing ray (no return, capped), which leaves its end cell alone. Updates go
+  // by cell, not by beam (OctoMap's insertPointCloud rule): within one scan every cell is
+  // updated at most once, one hit for a cell that is the hit of any valid beam (even if
+  // other beams cross it: occupied wins), one miss for every other crossed cell however many
+  // beams cross it. Grows the grid once first if the rays leave it. Throws
   // std::invalid_argument on a non-finite pose or bad range limits, std::length_error if
   // the grid would grow past ~134 M cells.
   ScanStats insert_scan(const Scan& scan);
@@ -136,7 +143,8 @@ class OccupancyGrid {
     return static_cast<std::size_t>(c.row - row_offset_) * cols_ + (c.col - col_offset_);
   }
   void grow_to_cover(const Box& box);
-  void trace_ray(const Cell& from, const Cell& to, bool hit);
+  std::uint32_t next_scan_stamp();
+  void trace_misses(const Cell& from, const Cell& to, std::uint32_t stamp);
   void update(float& logodds, float delta) const;
 
   GridSettings settings_;
@@ -147,6 +155,10 @@ class OccupancyGrid {
   int row_offset_ = 0, col_offset_ = 0;  // global cell of local (0, 0)
   std::vector<float> logodds_;           // NaN = never observed
   std::vector<std::int32_t> visits_;
+  // Per cell, the stamp of the last scan that updated it (0: none since the last growth):
+  // a cell whose stamp is the current scan's has had its one update of this scan.
+  std::vector<std::uint32_t> scan_stamps_;
+  std::uint32_t scan_stamp_ = 0;         // the last scan's stamp; never 0 once a scan ran
   int grow_count_ = 0;
 
   bool has_last_visit_ = false;

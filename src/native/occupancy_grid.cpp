@@ -11,7 +11,7 @@ namespace turtlebot_recon {
 
 namespace {
 
-// A grid past this many cells (8 bytes each: ~1 GiB) is a unit mistake, not a map.
+// A grid past this many cells (12 bytes each: ~1.5 GiB) is a unit mistake, not a map.
 constexpr std::int64_t kMaxCells = std::int64_t{1} << 27;
 // Global cell indices stay far from int overflow, with room for the growth margin.
 constexpr double kMaxCellIndex = 1e9;
@@ -67,10 +67,11 @@ OccupancyGrid::OccupancyGrid(const GridSettings& s) : settings_(s) {
         "OccupancyGrid: width_m x height_m at this resolution is too many cells");
   logodds_.assign(static_cast<std::size_t>(rows_) * cols_, std::numeric_limits<float>::quiet_NaN());
   visits_.assign(logodds_.size(), 0);
+  scan_stamps_.assign(logodds_.size(), 0);
 }
 
 // ---------------------------------------------------------------------------------------
-// Scan insertion: classify → grow → trace.
+// Scan insertion: classify → grow → hits → misses, each cell updated at most once per scan.
 
 ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
   check(std::isfinite(scan.sensor_x) && std::isfinite(scan.sensor_y) &&
@@ -124,9 +125,31 @@ ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
   // 2. Grow once so that every ray fits (a scan with nothing to trace writes nothing).
   if (!rays_.empty()) grow_to_cover(box);
 
-  // 3. Misses along each ray, a hit at its end.
-  for (const Ray& ray : rays_) trace_ray(sensor, ray.end, ray.hit);
+  if (rays_.empty()) return stats;
+
+  // 3. One hit on every hit cell, stamped so that no ray of this scan clears it and no
+  //    second beam ending there hits it again (occupied wins).
+  const std::uint32_t stamp = next_scan_stamp();
+  for (const Ray& ray : rays_) {
+    if (!ray.hit) continue;
+    const std::size_t i = index(ray.end);
+    if (scan_stamps_[i] == stamp) continue;
+    scan_stamps_[i] = stamp;
+    update(logodds_[i], l_hit_);
+  }
+
+  // 4. One miss on every other cell that any ray crosses.
+  for (const Ray& ray : rays_) trace_misses(sensor, ray.end, stamp);
   return stats;
+}
+
+// A stamp no cell holds yet. After 2^32 - 1 scans the counter wraps: every stamp is reset.
+std::uint32_t OccupancyGrid::next_scan_stamp() {
+  if (++scan_stamp_ == 0) {
+    std::fill(scan_stamps_.begin(), scan_stamps_.end(), 0);
+    scan_stamp_ = 1;
+  }
+  return scan_stamp_;
 }
 
 // Bayes update in log-odds: add the measurement's log-odds (an unknown cell starts at 0,
@@ -137,28 +160,33 @@ inline void OccupancyGrid::update(float& l, float delta) const {
 }
 
 // Bresenham's line from the sensor cell to the end cell: a miss on every cell before the
-// end cell (the sensor cell included), then a hit on the end cell if the beam returned.
-// Walks a pointer into the log-odds buffer (one step = +-1 column or +-1 row) and takes one
-// cell per step along the main axis, max(|d col|, |d row|) misses in all.
-void OccupancyGrid::trace_ray(const Cell& from, const Cell& to, bool hit) {
+// end cell (the sensor cell included) that this scan has not updated yet (a hit cell, or one
+// an earlier ray crossed), stamping it. The end cell is left alone (its hit, if any, is done).
+// Walks one offset into the log-odds and stamp buffers (one step = +-1 column or +-1 row),
+// one cell per step along the main axis, max(|d col|, |d row|) cells in all.
+void OccupancyGrid::trace_misses(const Cell& from, const Cell& to, std::uint32_t stamp) {
   const int dc = std::abs(to.col - from.col), dr = -std::abs(to.row - from.row);
   const std::ptrdiff_t step_c = from.col < to.col ? 1 : -1;
   const std::ptrdiff_t step_r = from.row < to.row ? cols_ : -std::ptrdiff_t{cols_};
   int err = dc + dr;
-  float* cell = logodds_.data() + index(from);
+  float* const logodds = logodds_.data();
+  std::uint32_t* const stamps = scan_stamps_.data();
+  std::ptrdiff_t i = static_cast<std::ptrdiff_t>(index(from));
   for (int n = std::max(dc, -dr); n > 0; --n) {
-    update(*cell, l_miss_);
+    if (stamps[i] != stamp) {
+      stamps[i] = stamp;
+      update(logodds[i], l_miss_);
+    }
     const int e2 = 2 * err;
     if (e2 >= dr) {  // step along x
       err += dr;
-      cell += step_c;
+      i += step_c;
     }
     if (e2 <= dc) {  // step along y
       err += dc;
-      cell += step_r;
+      i += step_r;
     }
   }
-  if (hit) update(*cell, l_hit_);  // `cell` is now the end cell
 }
 
 // ---------------------------------------------------------------------------------------
@@ -256,8 +284,13 @@ void OccupancyGrid::grow_to_cover(const Box& box) {
     std::copy_n(logodds_.begin() + src, cols_, logodds.begin() + dst);
     std::copy_n(visits_.begin() + src, cols_, visits.begin() + dst);
   }
+  // Stamps only matter within a scan, and no scan is in progress here (insert_scan grows
+  // before it stamps): the new window starts with none. Allocated before anything is swapped
+  // so that a failed allocation leaves the grid as it was.
+  std::vector<std::uint32_t> scan_stamps(logodds.size(), 0);
   logodds_.swap(logodds);
   visits_.swap(visits);
+  scan_stamps_.swap(scan_stamps);
   row_offset_ = static_cast<int>(new_row_offset);
   col_offset_ = static_cast<int>(new_col_offset);
   rows_ = static_cast<int>(new_rows);
