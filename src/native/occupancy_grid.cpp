@@ -123,9 +123,8 @@ ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
   }
 
   // 2. Grow once so that every ray fits (a scan with nothing to trace writes nothing).
-  if (!rays_.empty()) grow_to_cover(box);
-
   if (rays_.empty()) return stats;
+  grow_to_cover(box);
 
   // 3. One hit on every hit cell, stamped so that no ray of this scan clears it and no
   //    second beam ending there hits it again (occupied wins).

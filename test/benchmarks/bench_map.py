@@ -63,25 +63,22 @@ def house_scans(n: int):
 
 
 def numpy_insert(logodds, origin, pose, ranges, lid):
-    """The same update, vectorised: sample every beam at half-cell steps, np.add.at the cells."""
+    """The same update, vectorised: sample every beam at half-cell steps; each cell of the scan
+    gets one update, a hit if any beam ends there, else one miss (OctoMap's rule, as in C++)."""
     a = pose[2] + lid.angle_min_rad + lid.angle_increment_rad * np.arange(ranges.size)
     ok = np.isfinite(ranges) & (ranges >= lid.range_min_m) & (ranges <= lid.range_max_m)
     r, a = ranges[ok], a[ok]
-    steps = np.arange(0.0, lid.range_max_m, 0.5 * RES)
-    t = steps[None, :] * np.ones((r.size, 1))
+    t = np.arange(0.0, lid.range_max_m, 0.5 * RES)[None, :] * np.ones((r.size, 1))
     inside = t < (r[:, None] - 0.5 * RES)
-    px = pose[0] + t * np.cos(a)[:, None]
-    py = pose[1] + t * np.sin(a)[:, None]
-    rows = ((py - origin[1]) / RES).astype(int)
-    cols = ((px - origin[0]) / RES).astype(int)
-    beam = np.broadcast_to(np.arange(r.size)[:, None], t.shape)
-    cells = rows * logodds.shape[1] + cols
-    key = np.unique((beam[inside].astype(np.int64) << 32) | cells[inside])   # one miss per cell per beam
-    flat = logodds.reshape(-1)
-    np.add.at(flat, (key & 0xFFFFFFFF).astype(np.int64), L_MISS)
+    rows = ((pose[1] + t * np.sin(a)[:, None] - origin[1]) / RES).astype(int)
+    cols = ((pose[0] + t * np.cos(a)[:, None] - origin[0]) / RES).astype(int)
+    crossed = np.unique(rows[inside] * logodds.shape[1] + cols[inside])
     hr = ((pose[1] + r * np.sin(a) - origin[1]) / RES).astype(int)
     hc = ((pose[0] + r * np.cos(a) - origin[0]) / RES).astype(int)
-    np.add.at(flat, hr * logodds.shape[1] + hc, L_HIT)
+    hits = np.unique(hr * logodds.shape[1] + hc)
+    flat = logodds.reshape(-1)
+    flat[np.setdiff1d(crossed, hits, assume_unique=True)] += L_MISS
+    flat[hits] += L_HIT
     np.clip(flat, L_MIN, L_MAX, out=flat)
 
 

@@ -1,5 +1,10 @@
 """The C++ log-odds occupancy grid against a plain-Python reference and hand-worked numbers.
 
+Within one scan every cell is updated at most once (OctoMap's insertPointCloud rule): one hit
+for a cell that is the end cell of any valid return, even where other beams of the scan cross
+it ("occupied wins"), and one miss for every other cell that any ray crosses (clearing rays of
+no-return and capped beams included), however many beams cross it.
+
 Log-odds used throughout (defaults p_hit 0.7, p_miss 0.4, p_min 0.12, p_max 0.97):
     l(p) = ln(p / (1 - p))
     hit  = l(0.7)  = ln(7/3)     =  0.847298
@@ -25,7 +30,8 @@ def logit(p):
 
 
 # ----------------------------------------------------------------------------------------
-# Reference implementation: plain loops over a dict of global cells (no growth needed, no numpy).
+# Reference implementation: plain loops over a dict of global cells (no growth needed, no numpy),
+# with the per-scan cell sets of OctoMap's insertPointCloud / computeUpdate.
 
 def bresenham(r0, c0, r1, c1):
     """Cells from (r0, c0) up to, not including, (r1, c1)."""
@@ -87,11 +93,15 @@ class Reference:
                 continue
             a = syaw + angle_min + i * angle_inc
             rays.append((self.global_cell(sx + reach * math.cos(a), sy + reach * math.sin(a)), hit))
+        hits, crossed = set(), set()
         for end, hit in rays:
-            for cell in bresenham(sensor[0], sensor[1], end[0], end[1]):
-                self.update(cell, self.l_miss)
+            crossed.update(bresenham(sensor[0], sensor[1], end[0], end[1]))
             if hit:
-                self.update(end, self.l_hit)
+                hits.add(end)
+        for cell in hits:                 # one hit each, even if some ray crosses it
+            self.update(cell, self.l_hit)
+        for cell in crossed - hits:       # one miss each, however many rays cross it
+            self.update(cell, self.l_miss)
         return stats
 
     def as_array(self, grid):
@@ -224,14 +234,18 @@ def test_diagonal_beam_and_a_cell_both_hit_and_crossed():
     cells = known_cells(grid)
     assert sorted(cells) == [(k, k) for k in range(50, 56)]
     assert cells[(55, 55)] == pytest.approx(HIT, abs=1e-6)
-    # Two beams along +x in one scan: 0.5 m hits column 55, 1.0 m crosses it.
-    # Column 55: hit + miss = 0.847298 - 0.405465 = 0.441833; columns 50..54: two misses = -0.810930.
+    # Two beams along +x in one scan: 0.5 m hits column 55, 1.0 m crosses it and hits column 60.
+    # One update per cell per scan: column 55 is a hit cell, so it gets the hit only (occupied
+    # wins): 0.847298 (per beam it would be hit + miss = 0.441833); columns 50..54, crossed by
+    # both beams, get one miss: -0.405465 (per beam: two, -0.810930); 56..59 one miss; 60 a hit.
     grid.clear()
     scan(grid, [0.5, 1.0], inc=0.0)
     lo = grid.logodds()
-    assert lo[50, 55] == pytest.approx(0.441833, abs=1e-5)
-    np.testing.assert_allclose(lo[50, 50:55], 2 * MISS, atol=1e-5)
+    assert lo[50, 55] == pytest.approx(HIT, abs=1e-6)
+    np.testing.assert_allclose(lo[50, 50:55], MISS, atol=1e-6)
+    np.testing.assert_allclose(lo[50, 56:60], MISS, atol=1e-6)
     assert lo[50, 60] == pytest.approx(HIT, abs=1e-6)
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 61)]
 
 
 def test_beam_classes_and_clearing():
@@ -266,6 +280,107 @@ def test_beam_classes_and_clearing():
     # at the cap exactly it is still a valid hit
     grid.clear()
     assert scan(grid, [2.0], range_cap_m=2.0).valid == 1
+
+
+# ----------------------------------------------------------------------------------------
+# One update per cell per scan (OctoMap's rule), where per-beam updates would differ.
+
+def test_a_cell_crossed_by_many_beams_gets_one_miss_per_scan():
+    grid = OccupancyGrid(0.1)
+    # Three 1.0 m beams along +x in one scan, all crossing columns 50..59 and ending in 60:
+    # one miss each, -0.405465, and one hit, 0.847298 (per beam: 3 * -0.405465 = -1.216395
+    # and 3 * 0.847298 = 2.541894, both inside the clamp).
+    scan(grid, [1.0] * 3, inc=0.0)
+    lo = grid.logodds()
+    np.testing.assert_allclose(lo[50, 50:60], MISS, atol=1e-6)
+    assert lo[50, 60] == pytest.approx(HIT, abs=1e-6)
+    # The next scan updates them again, once: -0.810930 and 1.694596.
+    scan(grid, [1.0] * 3, inc=0.0)
+    lo = grid.logodds()
+    np.testing.assert_allclose(lo[50, 50:60], 2 * MISS, atol=1e-5)
+    assert lo[50, 60] == pytest.approx(2 * HIT, abs=1e-5)
+
+    # A full 360-beam, 3.5 m circle on 0.05 m cells: the sensor cell is crossed by all 360 beams
+    # (per beam: 360 misses, clamped at l(0.12) = -1.992430), its neighbours by dozens. Every
+    # cell the scan touched now holds exactly one update: l(p_miss) or l(p_hit), nothing else.
+    grid = OccupancyGrid(0.05)
+    ranges = np.full(360, 3.5, np.float32)
+    grid.insert_scan(0.01, 0.02, 0.1, ranges, 0.0, 2 * math.pi / 360, 0.12, 3.5)
+    lo = grid.logodds()
+    assert lo[grid.cell(0.01, 0.02)] == pytest.approx(MISS, abs=1e-6)
+    values = lo[~np.isnan(lo)]
+    assert np.isclose(values, MISS, atol=1e-6).sum() + np.isclose(values, HIT, atol=1e-6).sum() == values.size
+    assert 300 <= int(np.isclose(values, HIT, atol=1e-6).sum()) <= 360        # the circle
+    assert np.isclose(values, MISS, atol=1e-6).sum() > 3000                   # the disc inside
+    # Scanning again from the same pose: every cell holds exactly two updates of the same kind.
+    grid.insert_scan(0.01, 0.02, 0.1, ranges, 0.0, 2 * math.pi / 360, 0.12, 3.5)
+    lo2 = grid.logodds()
+    np.testing.assert_array_equal(np.isnan(lo2), np.isnan(lo))
+    np.testing.assert_allclose(lo2[~np.isnan(lo2)], 2 * values, atol=1e-5)
+
+
+@pytest.mark.parametrize("ranges, kw, misses", [
+    ([0.5, 1.0], {}, range(56, 60)),                               # a valid beam crosses it
+    ([1.0, 0.5], {}, range(56, 60)),                               # beam order does not matter
+    ([0.5, INF], dict(no_return_clear_m=1.0), range(56, 60)),      # a no-return clearing ray
+    ([3.0, 0.5], dict(range_cap_m=2.0), range(56, 70)),            # a capped clearing ray
+])
+def test_occupied_wins_over_a_ray_crossing_a_hit_cell(ranges, kw, misses):
+    grid = OccupancyGrid(0.1)
+    # The 0.5 m beam hits column 55; the other ray, along +x in the same scan, crosses it.
+    # Column 55 gets the hit only: 0.847298 (per beam it was hit + miss = 0.441833).
+    scan(grid, ranges, inc=0.0, **kw)
+    cells = known_cells(grid)
+    assert cells[(50, 55)] == pytest.approx(HIT, abs=1e-6)
+    for c in list(range(50, 55)) + list(misses):                   # crossed: one miss each
+        assert cells[(50, c)] == pytest.approx(MISS, abs=1e-6)
+    clearing = kw != {}
+    end = misses[-1] + 1                                           # the other ray's end cell
+    assert sorted(cells) == [(50, c) for c in range(50, end + (0 if clearing else 1))]
+    if not clearing:
+        assert cells[(50, end)] == pytest.approx(HIT, abs=1e-6)
+    # A second, identical scan: 2 * 0.847298 = 1.694596 (per beam: 2 * 0.441833 = 0.883666).
+    scan(grid, ranges, inc=0.0, **kw)
+    assert grid.logodds()[50, 55] == pytest.approx(2 * HIT, abs=1e-5)
+
+
+def test_a_hit_in_the_sensor_cell_is_not_cleared_by_the_other_rays():
+    grid = OccupancyGrid(0.1)
+    # 0.02 m (range_min 0.01) ends at x = 0.07, still in the sensor cell (50, 50): a hit there;
+    # the 1.0 m beam starts in that cell. Hit only: 0.847298 (per beam: 0.441833).
+    scan(grid, [0.02, 1.0], inc=0.0, range_min=0.01)
+    lo = grid.logodds()
+    assert lo[50, 50] == pytest.approx(HIT, abs=1e-6)
+    np.testing.assert_allclose(lo[50, 51:60], MISS, atol=1e-6)
+    assert lo[50, 60] == pytest.approx(HIT, abs=1e-6)
+
+
+def test_grazing_beams_do_not_erode_a_wall():
+    """A wall along y = 1.02 m (row 60), seen from (0.05, 0.05) by beams every 0.5 deg from 20
+    to 160 deg: shallow beams cross row-60 cells on their last steps (Bresenham reaches the row
+    before the end cell) that steeper beams hit. Per beam those wall cells would get a hit and
+    one or more misses; per cell every wall cell keeps exactly one hit."""
+    grid = OccupancyGrid(0.1)
+    angles = np.radians(np.arange(20.0, 160.1, 0.5))
+    ranges = (0.97 / np.sin(angles)).astype(np.float32)          # to y = 0.05 + 0.97 = 1.02
+    grid.insert_scan(0.05, 0.05, 0.0, ranges, float(angles[0]), math.radians(0.5), 0.12, 3.5)
+    ref = Reference(0.1, -5.0, -5.0)
+    hits, crossed = set(), set()
+    for i, r in enumerate(ranges.astype(float)):
+        a = 0.0 + float(angles[0]) + i * math.radians(0.5)       # as insert_scan computes it
+        end = ref.global_cell(0.05 + r * math.cos(a), 0.05 + r * math.sin(a))
+        hits.add(end)
+        crossed.update(bresenham(50, 50, *end))
+    assert {r for r, _ in hits} == {60}                           # every return is on the wall
+    # ... and the test means something: 16 of the 55 wall cells are crossed, 10 of them by two
+    # beams (per beam those would end at 0.847298 - 2 * 0.405465 = 0.036368, p = 0.51)
+    assert len(hits & crossed) >= 5
+    cells = known_cells(grid)
+    assert set(cells) == hits | crossed
+    for cell in hits:                                             # the wall: one hit, no miss
+        assert cells[cell] == pytest.approx(HIT, abs=1e-6), cell
+    for cell in crossed - hits:
+        assert cells[cell] == pytest.approx(MISS, abs=1e-6), cell
 
 
 def test_empty_and_all_invalid_scans_change_nothing():
@@ -424,10 +539,13 @@ def test_occupancy_values():
     # 20 misses: -8.11 clamps at l(0.001) -> p 0.001 -> round(0.1) = 0;
     # 20 hits: 16.9 clamps at l(0.999) -> p 0.999 -> round(99.9) = 100
     assert (occ[50, 50], occ[50, 60]) == (0, 100)
-    # a hit and a miss: l = 0.441833, p = 1 - 1 / (1 + e^0.441833) = 0.608696 -> 61
+    # Column 55 hit by one beam and crossed by the other in one scan: one hit only,
+    # l = 0.847298, p = 0.7 -> 70 (per beam it was hit + miss: l = 0.441833, p = 0.608696 -> 61).
+    # Column 50, crossed by both: one miss, p = 0.4 -> 40 (per beam two misses: l = -0.810930,
+    # p = 1 - 1 / (1 + e^-0.810930) = 0.307692 -> 31).
     grid.clear()
     scan(grid, [0.5, 1.0], inc=0.0)
-    assert grid.occupancy()[50, 55] == 61
+    assert (grid.occupancy()[50, 55], grid.occupancy()[50, 50]) == (70, 40)
 
 
 # ----------------------------------------------------------------------------------------
