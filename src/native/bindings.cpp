@@ -14,6 +14,7 @@ using namespace turtlebot_recon;
 // Areas, one .cpp each (src/native/<area>.cpp).
 void register_mapping(py::module_& m);    // occupancy_grid.cpp
 void register_planning(py::module_& m);   // planning.cpp
+void register_exploration(py::module_& m);  // exploration.cpp
 
 namespace {
 
@@ -57,4 +58,5 @@ PYBIND11_MODULE(_native, m) {
   m.def("build_info", &build_info, "Versions of the C++ libraries the module was built against.");
   register_mapping(m);
   register_planning(m);
+  register_exploration(m);
 }

@@ -1,0 +1,300 @@
+"""Frontier detection, clustering and goal points (seeds 004 and 001), with information gain.
+
+A frontier cell is an UNKNOWN cell with at least one free cell among its 8 neighbours:
+seed 004 convolves the free mask with a 3x3 kernel of ones and ANDs the result with the
+unknown mask. (Yamauchi's and seed 001's "frontier edge" is the free cell on the other
+side; marking the unknown side keeps every frontier cell inside the space still to be
+seen.) Frontier cells are grouped into 8-connected clusters (seed 004's BFS, here
+scipy.ndimage.label) and clusters smaller than ``min_size_cells`` are noise.
+
+Each cluster gets one goal. Its representative point is the cluster's cell nearest its
+centroid (the mean of a curved frontier may lie off it), optionally pushed up to
+``extend_into_unknown_m`` further from the robot while it stays in unknown space (seed 004's
+point extension, for corridors), then snapped to the nearest cell that the robot can stand
+on (cost <= ``max_cost``, seed 001's "nearest accessible point") AND reach (a finite
+cost-to-come in the robot's Dijkstra field), searching outward past accessible cells that
+are not connected to the robot. "Nearest" is measured along a path of such cells (or
+unknown ones) within ``snap_radius_m``, not in a straight line, so that a snap never jumps a
+wall: a frontier behind a gap narrower than the robot finds no reachable cell on its side
+and comes back with ``reachable=False`` (not dropped, so that callers can report it). With
+the default field (unknown space forbidden) an extended point snaps back to the known side
+of the frontier; the extension moves the goal itself only for a caller whose field crosses
+unknown space (a planner with unknown_cost >= 0, as Nav2's allow_unknown in seed 004). Gain
+is the number of unknown cells a lidar at the goal cell would see (C++ ray casting,
+``_native.visible_unknown``).
+
+Grids are nav_msgs/OccupancyGrid order: ``(rows, cols)``, row 0 at the smallest y; int8
+occupancy -1 unknown, 0..100; cell (r, c) has its centre at origin + ((c + 0.5) res,
+(r + 0.5) res) in the map frame (the map's origin is assumed unrotated).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+from scipy import ndimage
+
+from .. import _native
+from ..config import positive, require
+from ..planning import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, dijkstra,
+                        nearest_accessible)
+
+Cell = Tuple[int, int]
+Point = Tuple[float, float]
+
+# The 8 neighbours of a cell (the centre is unknown wherever the result is used).
+_NEIGHBOURS = np.ones((3, 3), dtype=np.uint8)
+_EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
+
+
+@dataclass(frozen=True)
+class FrontierSettings:
+    free_threshold: int = 25            # occupancy 0..this is free (map_saver's 0.25)
+    min_size_cells: int = 3             # smaller clusters are noise (seed 004)
+    sensor_range_m: float = 3.5         # gain counts unknown cells within this range (LDS-01)
+    gain_beams: int = 180               # rays cast per goal for the gain
+    extend_into_unknown_m: float = 0.0  # push the representative point this far from the robot
+                                        # into unknown space before snapping (seed 004); 0: off
+    snap_radius_m: float = 1.0          # search radius (path length) for the goal cell
+    max_cost: int = 252                 # a goal cell's cost must be <= this (not inscribed/lethal)
+
+    def validate(self, src: str) -> None:
+        require(isinstance(self.free_threshold, int) and 0 <= self.free_threshold <= 100, src,
+                "free_threshold", "must be an integer in 0..100")
+        require(isinstance(self.min_size_cells, int) and self.min_size_cells >= 1, src,
+                "min_size_cells", "must be an integer >= 1")
+        positive(src, self, "sensor_range_m", "snap_radius_m")
+        require(isinstance(self.gain_beams, int) and self.gain_beams >= 1, src, "gain_beams",
+                "must be an integer >= 1")
+        require(math.isfinite(self.extend_into_unknown_m) and self.extend_into_unknown_m >= 0,
+                src, "extend_into_unknown_m", "must be >= 0 (0 turns the extension off)")
+        require(isinstance(self.max_cost, int) and 0 <= self.max_cost < INSCRIBED, src,
+                "max_cost", f"must be an integer in 0..{INSCRIBED - 1} (below inscribed)")
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class Frontier:
+    """One cluster of frontier cells and its goal. Positions are metres in the map frame."""
+    id: int                  # index in this detection, 0..n-1 (clusters in raster order)
+    cells: np.ndarray        # int32 (n, 2) (row, col) frontier cells (read-only)
+    size: int                # number of cells
+    length_m: float          # size * resolution (explore_lite's frontier "size")
+    centroid: Point          # (x, y) m, mean of the cells' centres
+    closest: Point           # (x, y) m of the frontier cell nearest (Euclidean) to the robot
+    goal: Point              # (x, y) m of goal_cell's centre
+    goal_cell: Cell          # (row, col): the reachable cell nearest the representative point;
+                             # else the nearest one the robot could stand on; else the
+                             # representative cell itself
+    gain: int                # unknown cells visible from goal_cell within sensor_range_m
+    path_cost_m: float       # cost-to-come from the robot to goal_cell; inf if unreachable
+    reachable: bool          # a reachable goal cell was found (path_cost_m finite)
+
+    def __repr__(self) -> str:
+        return (f"Frontier(id={self.id}, size={self.size}, centroid=({self.centroid[0]:.2f}, "
+                f"{self.centroid[1]:.2f}), goal=({self.goal[0]:.2f}, {self.goal[1]:.2f}), "
+                f"gain={self.gain}, path_cost_m={self.path_cost_m:.2f}, "
+                f"reachable={self.reachable})")
+
+
+def find_frontier_cells(occupancy: np.ndarray, free_threshold: int = 25) -> np.ndarray:
+    """Bool mask of the UNKNOWN cells (< 0) with at least one free (0..free_threshold) cell
+    among their 8 neighbours (seed 004: convolve(free, 3x3 ones) > 0, AND unknown; its table
+    says "> 1 free neighbour", but a single free neighbour already borders the unknown, and
+    requiring two would miss the tip of a one-cell-wide free strip). Cells beyond the grid's
+    edge count as not free."""
+    occupancy = np.asarray(occupancy)
+    if occupancy.ndim != 2:
+        raise ValueError(f"find_frontier_cells: occupancy must be 2-D, got {occupancy.ndim}-D")
+    free = (occupancy >= 0) & (occupancy <= free_threshold)
+    free_neighbours = ndimage.convolve(free.astype(np.uint8), _NEIGHBOURS, mode="constant", cval=0)
+    return (occupancy < 0) & (free_neighbours > 0)
+
+
+def cluster(mask: np.ndarray, min_size: int = 1) -> List[np.ndarray]:
+    """8-connected components of a bool mask with at least ``min_size`` cells, each an int32
+    (n, 2) array of (row, col) in raster order; components in raster order of their first
+    cell."""
+    mask = np.asarray(mask, dtype=bool)
+    if mask.ndim != 2:
+        raise ValueError(f"cluster: mask must be 2-D, got {mask.ndim}-D")
+    labels, count = ndimage.label(mask, structure=_EIGHT_CONNECTED)
+    if count == 0:
+        return []
+    flat = labels.ravel()
+    index = np.flatnonzero(flat)
+    index = index[np.argsort(flat[index], kind="stable")]  # by label, raster order inside
+    sizes = np.bincount(flat[index], minlength=count + 1)[1:]
+    rows, cols = np.divmod(index, mask.shape[1])
+    cells = np.stack([rows, cols], axis=1).astype(np.int32)
+    groups = np.split(cells, np.cumsum(sizes)[:-1])
+    return [g for g in groups if len(g) >= min_size]
+
+
+def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+           costmap: np.ndarray, robot_cell: Cell, settings: FrontierSettings = FrontierSettings(),
+           cost_to_come: Optional[np.ndarray] = None) -> List[Frontier]:
+    """Frontiers of ``occupancy`` with goals, gains and path costs from ``robot_cell``.
+
+    occupancy: int8 (rows, cols); resolution: m per cell; origin: (x, y[, yaw]) of cell
+    (0, 0)'s corner, yaw ignored; costmap: uint8 inflated costmap of the same map (Nav2
+    values); robot_cell: (row, col) of the robot. cost_to_come: float32 (rows, cols) field
+    from the robot (e.g. ``dijkstra`` with the caller's visit penalty); by default
+    ``dijkstra(costmap, robot_cell)``, computed once here. If the robot's cell is impassable
+    (inscribed, when it brushes a wall), that field starts from the nearest passable cell
+    within ``snap_radius_m``; with none, every frontier is unreachable.
+    """
+    occupancy = np.asarray(occupancy)
+    if occupancy.ndim != 2:
+        raise ValueError(f"detect: occupancy must be 2-D, got {occupancy.ndim}-D")
+    occupancy = np.ascontiguousarray(occupancy, dtype=np.int8)
+    costmap = np.ascontiguousarray(costmap, dtype=np.uint8)
+    if costmap.shape != occupancy.shape:
+        raise ValueError(f"detect: costmap has shape {costmap.shape}, occupancy "
+                         f"{occupancy.shape}")
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"detect: resolution must be a positive number of metres, got "
+                         f"{resolution}")
+    robot_cell = (int(robot_cell[0]), int(robot_cell[1]))
+    if cost_to_come is None:
+        cost_to_come = _robot_cost_to_come(costmap, robot_cell, settings, resolution)
+    else:
+        cost_to_come = np.asarray(cost_to_come)
+        if cost_to_come.shape != occupancy.shape:
+            raise ValueError(f"detect: cost_to_come has shape {cost_to_come.shape}, occupancy "
+                             f"{occupancy.shape}")
+
+    clusters = cluster(find_frontier_cells(occupancy, settings.free_threshold),
+                       settings.min_size_cells)
+    if not clusters:
+        return []
+    unknown = occupancy < 0
+    robot = np.array(robot_cell, dtype=float)
+    goals: List[Tuple[Cell, bool]] = []
+    for cells in clusters:
+        representative = _representative_cell(cells)
+        target = _extend_into_unknown(representative, robot, unknown,
+                                      settings.extend_into_unknown_m / resolution)
+        goals.append(_snap(costmap, cost_to_come, [target, representative], settings, resolution))
+    gains = _native.visible_unknown(occupancy, np.array([g for g, _ in goals], dtype=np.int32),
+                                    settings.sensor_range_m / resolution,
+                                    beams=settings.gain_beams,
+                                    free_threshold=settings.free_threshold)
+
+    def to_xy(row: float, col: float) -> Point:
+        return (float(origin[0] + (col + 0.5) * resolution),
+                float(origin[1] + (row + 0.5) * resolution))
+
+    frontiers = []
+    for i, (cells, (goal_cell, reachable), gain) in enumerate(zip(clusters, goals, gains)):
+        cells.setflags(write=False)
+        nearest = cells[np.argmin(((cells - robot) ** 2).sum(axis=1))]
+        frontiers.append(Frontier(
+            id=i, cells=cells, size=len(cells), length_m=len(cells) * resolution,
+            centroid=to_xy(*cells.mean(axis=0)), closest=to_xy(*nearest),
+            goal=to_xy(*goal_cell), goal_cell=goal_cell, gain=int(gain),
+            path_cost_m=float(cost_to_come[goal_cell]) if reachable else math.inf,
+            reachable=reachable))
+    return frontiers
+
+
+# ------------------------------------------------------------------------------------ steps
+
+def _robot_cost_to_come(costmap: np.ndarray, robot_cell: Cell, settings: FrontierSettings,
+                        resolution: float) -> np.ndarray:
+    """Dijkstra field (float32) from the robot, or from the nearest passable cell (cost <=
+    252) within snap_radius_m when the robot's own cell is impassable; all +inf if none."""
+    r, c = robot_cell
+    rows, cols = costmap.shape
+    start: Optional[Cell] = robot_cell
+    if not (0 <= r < rows and 0 <= c < cols and costmap[r, c] < INSCRIBED):
+        start = nearest_accessible(costmap, robot_cell, max_cost=INSCRIBED - 1,
+                                   max_radius_m=settings.snap_radius_m, resolution=resolution)
+    if start is None:
+        return np.full(costmap.shape, np.inf, dtype=np.float32)
+    return dijkstra(costmap, start, resolution=resolution)
+
+
+def _representative_cell(cells: np.ndarray) -> Cell:
+    """The cluster's cell nearest its centroid (first in raster order on ties)."""
+    offsets = cells - cells.mean(axis=0)
+    r, c = cells[np.argmin((offsets ** 2).sum(axis=1))]
+    return int(r), int(c)
+
+
+def _extend_into_unknown(cell: Cell, robot: np.ndarray, unknown: np.ndarray,
+                         extension_cells: float) -> Cell:
+    """``cell`` moved up to ``extension_cells`` further along robot -> cell, in whole-cell
+    steps, as far as every step lands on an unknown cell of the grid (seed 004)."""
+    direction = np.asarray(cell, dtype=float) - robot
+    norm = float(np.hypot(*direction))
+    steps = int(math.floor(extension_cells + 1e-9))
+    if steps == 0 or norm == 0.0:
+        return cell
+    k = np.arange(1, steps + 1, dtype=float)[:, None]
+    samples = np.floor(np.asarray(cell, dtype=float) + k * direction / norm + 0.5).astype(int)
+    rows, cols = unknown.shape
+    inside = ((samples[:, 0] >= 0) & (samples[:, 0] < rows) &
+              (samples[:, 1] >= 0) & (samples[:, 1] < cols))
+    ok = inside.copy()
+    ok[inside] = unknown[samples[inside, 0], samples[inside, 1]]
+    run = steps if ok.all() else int(np.argmin(ok))  # leading steps that stay in unknown
+    if run == 0:
+        return cell
+    return int(samples[run - 1, 0]), int(samples[run - 1, 1])
+
+
+def _snap(costmap: np.ndarray, cost_to_come: np.ndarray, targets: Sequence[Cell],
+          settings: FrontierSettings, resolution: float) -> Tuple[Cell, bool]:
+    """(goal cell, reachable). For each target in turn (the extended point, then the
+    representative one), the cell nearest to it by a path within snap_radius_m
+    (_distance_from) that the robot can stand on and reach: a finite cost-to-come and a known
+    cost <= max_cost, or unknown (255) where the caller's field crosses unknown space (a
+    planner with unknown_cost >= 0, like Nav2's allow_unknown in seed 004). With none, an
+    unreachable goal for the report: the nearest cell it could stand on, else the
+    representative cell itself. Ties go to the smaller row, then column."""
+    fallback: Optional[Cell] = None
+    for target in dict.fromkeys(targets):  # unique, in order
+        window, distance = _distance_from(costmap, target, settings, resolution)
+        cost = costmap[window]
+        near = distance <= settings.snap_radius_m + 1e-9
+        standable = cost <= settings.max_cost
+        reached = np.isfinite(cost_to_come[window])
+        goal = _nearest(distance, near & (standable | (cost == NO_INFORMATION)) & reached, window)
+        if goal is not None:
+            return goal, True
+        if fallback is None:
+            fallback = _nearest(distance, near & standable, window)
+    return (targets[-1] if fallback is None else fallback), False
+
+
+def _distance_from(costmap: np.ndarray, target: Cell, settings: FrontierSettings,
+                   resolution: float) -> Tuple[Tuple[slice, slice], np.ndarray]:
+    """Path distance (m, 8-connected, float32) from ``target`` over the cells of the window
+    of radius snap_radius_m around it, moving only on cells with cost <= max_cost or unknown.
+
+    Seed 001 snaps to the nearest accessible cell by straight-line distance, which jumps
+    walls: a frontier behind a gap narrower than the robot would borrow a goal in the
+    robot's room on the other side of the wall and look reachable. Measured along cells the
+    robot could stand on (or has not seen), the goal stays on the frontier's side."""
+    rows, cols = costmap.shape
+    k = int(math.ceil(settings.snap_radius_m / resolution))  # path >= straight-line distance
+    r0, c0 = target
+    window = (slice(max(r0 - k, 0), min(r0 + k + 1, rows)),
+              slice(max(c0 - k, 0), min(c0 + k + 1, cols)))
+    cost = costmap[window]
+    passable = (cost <= settings.max_cost) | (cost == NO_INFORMATION)
+    local = np.where(passable, FREE_SPACE, LETHAL).astype(np.uint8)
+    start = (r0 - window[0].start, c0 - window[1].start)
+    local[start] = FREE_SPACE  # the target (a frontier cell, unknown) is where the walk begins
+    return window, dijkstra(local, start, resolution=resolution)
+
+
+def _nearest(distance: np.ndarray, ok: np.ndarray, window: Tuple[slice, slice]) -> Optional[Cell]:
+    """The ``ok`` cell of the window with the smallest distance, in grid coordinates (the
+    first in raster order on ties), or None."""
+    if not ok.any():
+        return None
+    i, j = np.unravel_index(np.argmin(np.where(ok, distance, np.inf)), ok.shape)
+    return int(window[0].start + i), int(window[1].start + j)

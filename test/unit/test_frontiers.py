@@ -1,0 +1,425 @@
+"""Frontiers: detection, clustering, goal points, reachability, extension and information gain.
+
+Maps are drawn by hand (int8 ROS occupancy, row 0 = smallest y) and the expected cells and
+numbers are worked out in the comments. ``visible_unknown`` (C++) is checked against a
+plain-Python ray caster written here with the same beam end points and Bresenham lines, on
+random maps with fixed seeds, and against hand counts.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from turtlebot_recon import _native
+from turtlebot_recon.config import ConfigError, from_dict
+from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, detect,
+                                         find_frontier_cells)
+from turtlebot_recon.planning import CostmapSettings, dijkstra, make_costmap, nearest_accessible
+from turtlebot_recon.robot import load_robot
+
+RES = 0.05
+UNKNOWN, FREE, WALL = -1, 0, 100
+
+
+# ---------------------------------------------------------------- references and factories
+
+def bresenham(end_r, end_c):
+    """Cells of the Bresenham line (0, 0) -> (end_r, end_c), both ends included."""
+    ar, sr = abs(end_r), (-1 if end_r < 0 else 1)
+    ac, sc = -abs(end_c), (-1 if end_c < 0 else 1)
+    err, r, c = ar + ac, 0, 0
+    while True:
+        yield r, c
+        if (r, c) == (end_r, end_c):
+            return
+        e2 = 2 * err
+        if e2 >= ac:
+            err += ac
+            r += sr
+        if e2 <= ar:
+            err += ar
+            c += sc
+
+
+def reference_visible_unknown(occ, cell, radius, beams, free_threshold=25):
+    """Distinct unknown cells on `beams` rays from `cell`, each stopped beyond `radius`
+    (cells, centre to centre), at the grid's edge or on an occupied cell other than `cell`."""
+    rows, cols = occ.shape
+    seen = set()
+    for k in range(beams):
+        angle = 2.0 * math.pi * k / beams
+        end_r = math.floor(radius * math.sin(angle) + 0.5)
+        end_c = math.floor(radius * math.cos(angle) + 0.5)
+        for dr, dc in bresenham(end_r, end_c):
+            if dr * dr + dc * dc > radius * radius:
+                break
+            r, c = cell[0] + dr, cell[1] + dc
+            if not (0 <= r < rows and 0 <= c < cols):
+                break
+            v = occ[r, c]
+            if v < 0:
+                seen.add((r, c))
+            elif v > free_threshold and (dr, dc) != (0, 0):
+                break
+    return len(seen)
+
+
+def walled_room(occ, rows, cols, gap_cols=None):
+    """Free interior rows[0]..rows[1], cols[0]..cols[1] inside 1-cell walls (in place); the top
+    wall's cells in gap_cols stay unknown: the frontier."""
+    (r0, r1), (c0, c1) = rows, cols
+    occ[r0 - 1:r1 + 2, c0 - 1:c1 + 2] = WALL
+    occ[r0:r1 + 1, c0:c1 + 1] = FREE
+    if gap_cols is not None:
+        occ[r1 + 1, gap_cols[0]:gap_cols[1] + 1] = UNKNOWN
+    return occ
+
+
+def gap_room():
+    """30 x 40 cells, unknown outside a room with free interior rows 3..19, cols 3..29; its
+    top wall (row 20) has a 10-cell gap, cols 10..19, left unknown: the only frontier."""
+    return walled_room(np.full((30, 40), UNKNOWN, np.int8), (3, 19), (3, 29), gap_cols=(10, 19))
+
+
+def two_rooms(door_rows):
+    """30 x 60 cells: room A (cols 3..27) and room B (cols 31..56), rows 3..19, split by a
+    wall 3 cells thick (cols 28..30) with a door over `door_rows` (inclusive); each room's
+    top wall has a 6-cell unknown gap: A cols 10..15, B cols 40..45."""
+    occ = np.full((30, 60), UNKNOWN, np.int8)
+    walled_room(occ, (3, 19), (3, 27), gap_cols=(10, 15))
+    walled_room(occ, (3, 19), (31, 56), gap_cols=(40, 45))
+    occ[3:20, 28:31] = WALL
+    occ[door_rows[0]:door_rows[1] + 1, 28:31] = FREE
+    return occ
+
+
+@pytest.fixture(scope="module")
+def burger_costmap_settings():
+    # Inscribed radius 0.105 m = 2.1 cells: a cell 1 or 2 cells from a wall is inscribed (253).
+    return CostmapSettings.for_robot(load_robot("turtlebot3_burger"))
+
+
+def cells_of(clusters):
+    return [sorted(map(tuple, c.tolist())) for c in clusters]
+
+
+# ---------------------------------------------------------------- detection
+
+def test_frontier_cells_are_the_unknown_cells_next_to_free_ones():
+    # Row 4 at the top (printed first):      Unknown cells with a free 8-neighbour:
+    #   row 4   ?  ?  ?  ?  ?                 row 3: cols 0..2 (above free row 2), col 3
+    #   row 3   ?  ?  ?  ?  ?                        (diagonal to free (2, 2)); not col 4
+    #   row 2   .  .  .  ?  ?                 col 3: rows 1 and 2 (next to free col 2)
+    #   row 1   .  .  .  ?  ?                 not (0, 4) (neighbours: wall, unknown), not
+    #   row 0   .  .  .  #  ?                 row 4 (neighbours: unknown only)
+    occ = np.full((5, 5), UNKNOWN, np.int8)
+    occ[0:3, 0:3] = FREE
+    occ[0, 3] = WALL
+    mask = find_frontier_cells(occ, free_threshold=25)
+    assert mask.dtype == bool
+    assert sorted(map(tuple, np.argwhere(mask).tolist())) == [
+        (1, 3), (2, 3), (3, 0), (3, 1), (3, 2), (3, 3)]
+
+
+def test_free_threshold_is_inclusive():
+    # One known cell in the middle of an unknown 3 x 3 grid: it is free at 25 (its 8
+    # neighbours are frontier cells), not free at 26 (no frontier at all).
+    occ = np.full((3, 3), UNKNOWN, np.int8)
+    occ[1, 1] = 25
+    assert find_frontier_cells(occ, 25).sum() == 8
+    occ[1, 1] = 26
+    assert find_frontier_cells(occ, 25).sum() == 0
+    assert find_frontier_cells(occ, 26).sum() == 8
+
+
+def test_walls_and_fully_known_maps_have_no_frontier():
+    occ = np.zeros((6, 6), np.int8)
+    assert not find_frontier_cells(occ, 25).any()
+    occ[:, 3:] = UNKNOWN
+    occ[:, 3] = WALL      # unknown cells behind a wall touch only the wall
+    assert not find_frontier_cells(occ, 25).any()
+
+
+# ---------------------------------------------------------------- clustering
+
+def test_cluster_drops_clusters_smaller_than_min_size():
+    # Four separate groups of 1, 2, 3 and 5 cells (2 cells apart, so not 8-connected).
+    mask = np.zeros((3, 20), bool)
+    mask[0, 0] = True                # 1
+    mask[0, 3:5] = True              # 2
+    mask[0, 7:10] = True             # 3
+    mask[0, 12:17] = True            # 5
+    assert [len(c) for c in cluster(mask, 1)] == [1, 2, 3, 5]
+    kept = cluster(mask, 3)
+    assert [len(c) for c in kept] == [3, 5]
+    assert cells_of(kept) == [[(0, 7), (0, 8), (0, 9)], [(0, c) for c in range(12, 17)]]
+    assert cluster(mask, 6) == []
+    assert all(c.dtype == np.int32 and c.shape[1] == 2 for c in kept)
+
+
+def test_cluster_joins_diagonal_cells():
+    # (0,0), (1,1), (2,2): three clusters under 4-connectivity, one under 8-connectivity.
+    mask = np.eye(3, dtype=bool)
+    clusters = cluster(mask, 1)
+    assert len(clusters) == 1
+    assert cells_of(clusters) == [[(0, 0), (1, 1), (2, 2)]]
+
+
+def test_two_rooms_give_two_clusters():
+    # Each room's gap is its own frontier: A = row 20, cols 10..15; B = row 20, cols 40..45
+    # (6 cells each; the unknown row 21 above touches no free cell).
+    occ = two_rooms(door_rows=(8, 13))
+    clusters = cluster(find_frontier_cells(occ, 25), 3)
+    assert cells_of(clusters) == [[(20, c) for c in range(10, 16)],
+                                  [(20, c) for c in range(40, 46)]]
+
+
+# ---------------------------------------------------------------- detect: goals
+
+def test_detect_gap_room_fields(burger_costmap_settings):
+    occ = gap_room()
+    origin = (-1.0, 2.0, 0.0)
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    robot = (10, 14)
+    frontiers = detect(occ, RES, origin, costmap, robot, FrontierSettings())
+    assert len(frontiers) == 1
+    f = frontiers[0]
+    assert isinstance(f, Frontier)
+    assert f.id == 0
+    assert sorted(map(tuple, f.cells.tolist())) == [(20, c) for c in range(10, 20)]
+    assert f.size == 10
+    assert f.length_m == pytest.approx(0.5)            # 10 cells x 0.05 m
+    # Centroid: row 20, mean col 14.5 -> x = -1 + 15 x 0.05 = -0.25, y = 2 + 20.5 x 0.05.
+    assert f.centroid == pytest.approx((-0.25, 3.025))
+    # Frontier cell nearest to the robot (10, 14): (20, 14) -> x = -1 + 14.5 x 0.05.
+    assert f.closest == pytest.approx((-0.275, 3.025))
+    # Representative: (20, 14) and (20, 15) are both 0.5 from the centroid; raster order
+    # picks (20, 14). Its nearest known cell below 253 is (19, 14), one cell down (nearest
+    # wall cell (20, 9), sqrt(26) = 5.1 cells = 0.255 m > 0.105 m inscribed radius).
+    assert f.goal_cell == (19, 14)
+    assert f.goal == pytest.approx((-0.275, 2.975))
+    assert costmap[f.goal_cell] <= 252
+    # The same cell as seed 001's nearest accessible point when that one is reachable.
+    assert nearest_accessible(costmap, (20, 14), max_cost=252, max_radius_m=1.0,
+                              resolution=RES) == f.goal_cell
+    assert f.reachable
+    with pytest.raises(ValueError):     # frozen, and the cells with it
+        f.cells[0, 0] = 0
+
+
+def test_path_cost_is_the_dijkstra_field_and_gain_the_ray_count(burger_costmap_settings):
+    occ = two_rooms(door_rows=(6, 17))     # a 12-cell (0.6 m) door: both rooms reachable
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    robot = (10, 14)
+    field = dijkstra(costmap, robot, resolution=RES)
+    frontiers = detect(occ, RES, (0.0, 0.0), costmap, robot, FrontierSettings())
+    assert [f.reachable for f in frontiers] == [True, True]
+    for f in frontiers:
+        assert f.path_cost_m == float(field[f.goal_cell])
+        # 3.5 m / 0.05 m = 70 cells, 180 beams (the settings' defaults).
+        expected = _native.visible_unknown(occ, np.array([f.goal_cell], np.int32), 70.0,
+                                           beams=180, free_threshold=25)[0]
+        assert f.gain == expected > 0
+    # Room B's goal is through the door: farther by path than by straight line.
+    a, b = frontiers
+    assert b.path_cost_m > a.path_cost_m
+    assert b.path_cost_m > math.dist(b.goal, (14.5 * RES, 10.5 * RES))
+    # A caller's own field (here: a uniform 2x) is used as given, not recomputed.
+    again = detect(occ, RES, (0.0, 0.0), costmap, robot, FrontierSettings(), cost_to_come=2 * field)
+    assert [g.path_cost_m for g in again] == [2 * f.path_cost_m for f in frontiers]
+
+
+def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_costmap_settings):
+    # Door of 2 cells (0.1 m) for a robot 0.21 m wide: every door cell is 1 cell from a door
+    # post, inside the 2.1-cell inscribed radius, so room B is cut off.
+    occ = two_rooms(door_rows=(10, 11))
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert (costmap[10:12, 28:31] >= 253).all()
+    a, b = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), FrontierSettings())
+    assert a.reachable and math.isfinite(a.path_cost_m)
+    assert not b.reachable
+    assert b.path_cost_m == math.inf
+    # Still reported, at the nearest accessible cell to its representative (20, 42): (19, 42)
+    # (3.2 cells = 0.16 m from the wall cell (20, 39), so below inscribed). A straight-line
+    # search for the nearest reachable cell would jump the wall into room A: (17, 25) is
+    # sqrt(3^2 + 17^2) = 17.3 cells = 0.87 m < the 1 m snap radius away. Measured along
+    # cells the robot could stand on, room A is only reached through the door: not at all.
+    assert b.goal_cell == (19, 42)
+    assert costmap[b.goal_cell] <= 252
+    # Widen the door to 12 cells (0.6 m): B becomes reachable at the same goal.
+    wide = two_rooms(door_rows=(6, 17))
+    _, b_wide = detect(wide, RES, (0.0, 0.0), make_costmap(wide, RES, burger_costmap_settings),
+                       (10, 14), FrontierSettings())
+    assert b_wide.reachable and b_wide.goal_cell == (19, 42)
+
+
+def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings):
+    # In the gap room the nearest accessible cell to the representative (20, 14) is (19, 14).
+    # Cut it off in the caller's field: the goal moves to the nearest accessible AND reachable
+    # cell. At distance 1 the other cells are unknown ((20, 13), (20, 15), (21, 14)); at
+    # sqrt(2) the known ones are (19, 13) and (19, 15), and the tie goes to the smaller column.
+    occ = gap_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    field = dijkstra(costmap, (10, 14), resolution=RES)
+    field[19, 14] = np.inf
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), FrontierSettings(), cost_to_come=field)
+    assert f.goal_cell == (19, 13)
+    assert f.reachable and f.path_cost_m == float(field[19, 13])
+
+
+def test_no_accessible_cell_within_the_snap_radius(burger_costmap_settings):
+    # A snap radius of 0.01 m (0.2 cells) holds only the representative (20, 14), an unknown
+    # cell: no goal cell, so the frontier is reported at the representative, unreachable.
+    occ = gap_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    settings = FrontierSettings(snap_radius_m=0.01)   # 0.2 cells: only the target itself
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), settings)
+    assert f.goal_cell == (20, 14)
+    assert not f.reachable and f.path_cost_m == math.inf
+
+
+def test_robot_on_an_inscribed_cell_still_gets_a_field(burger_costmap_settings):
+    # (3, 14) is 1 cell above the bottom wall (row 2): inscribed (253), where dijkstra would
+    # refuse to start. The field then starts at the nearest passable cell, (5, 14)
+    # (3 cells = 0.15 m from the wall; (4, 14) at 0.10 m is still inscribed).
+    occ = gap_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert costmap[3, 14] == 253 and costmap[4, 14] == 253 and costmap[5, 14] < 253
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (3, 14), FrontierSettings())
+    assert f.reachable
+    assert f.path_cost_m == float(dijkstra(costmap, (5, 14), resolution=RES)[f.goal_cell])
+
+
+def test_extension_into_unknown(burger_costmap_settings):
+    # Robot (10, 14) below the representative (20, 14): robot -> point is +row. With a field
+    # that crosses unknown space (unknown_cost=0, seed 004's allow_unknown) the goal is the
+    # representative itself without extension ...
+    occ = gap_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    robot = (10, 14)
+    field = dijkstra(costmap, robot, unknown_cost=0, resolution=RES)
+
+    def goal(occupancy, extend_m, cost_to_come):
+        costmap_here = make_costmap(occupancy, RES, burger_costmap_settings)
+        (f,) = detect(occupancy, RES, (0.0, 0.0), costmap_here, robot,
+                      FrontierSettings(extend_into_unknown_m=extend_m), cost_to_come=cost_to_come)
+        return f.goal_cell, f.reachable
+
+    assert goal(occ, 0.0, field) == ((20, 14), True)
+    # ... and 0.25 m = 5 cells further with it: (25, 14), unknown all the way.
+    assert goal(occ, 0.25, field) == ((25, 14), True)
+    # 1 m = 20 cells would leave the 30-row grid after row 29: it stops there.
+    assert goal(occ, 1.0, field) == ((29, 14), True)
+    # A wall at (23, 14) stops it after rows 21 and 22.
+    walled = occ.copy()
+    walled[23, 14] = WALL
+    assert goal(walled, 0.25, dijkstra(make_costmap(walled, RES, burger_costmap_settings), robot,
+                                       unknown_cost=0, resolution=RES)) == ((22, 14), True)
+    # With the default field (unknown forbidden) the extended point (25, 14) snaps back to
+    # the known side: (19, 14) is 6 cells away, (19, 13) and (19, 15) sqrt(37).
+    assert goal(occ, 0.25, None) == ((19, 14), True)
+
+
+def test_no_frontiers_and_bad_input(burger_costmap_settings):
+    occ = np.zeros((10, 10), np.int8)
+    occ[0, :] = WALL
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert detect(occ, RES, (0.0, 0.0), costmap, (5, 5), FrontierSettings()) == []
+    with pytest.raises(ValueError, match="costmap has shape"):
+        detect(occ, RES, (0.0, 0.0), costmap[:5], (5, 5), FrontierSettings())
+    with pytest.raises(ValueError, match="resolution"):
+        detect(occ, 0.0, (0.0, 0.0), costmap, (5, 5), FrontierSettings())
+
+
+def test_settings_validation():
+    assert from_dict(FrontierSettings, {}, "test") == FrontierSettings()
+    for bad in ({"min_size_cells": 0}, {"max_cost": 253}, {"sensor_range_m": 0.0},
+                {"extend_into_unknown_m": -0.1}, {"gain_beams": 0}, {"free_threshold": 101},
+                {"snap_radius_m": -1.0}):
+        with pytest.raises(ConfigError, match=next(iter(bad))):
+            from_dict(FrontierSettings, bad, "test")
+
+
+# ---------------------------------------------------------------- information gain
+
+def test_visible_unknown_matches_the_reference_on_random_maps():
+    rng = np.random.default_rng(5)
+    values = np.array([UNKNOWN, FREE, 10, 25, 26, 60, WALL], np.int8)
+    probs = [0.45, 0.35, 0.05, 0.03, 0.03, 0.03, 0.06]
+    for trial in range(12):
+        rows, cols = rng.integers(1, 40, size=2)
+        occ = rng.choice(values, size=(rows, cols), p=probs).astype(np.int8)
+        cells = np.stack([rng.integers(0, rows, 6), rng.integers(0, cols, 6)], axis=1)
+        cells = cells.astype(np.int32)
+        for radius in (0.0, 1.0, 2.5, 7.3, 15.0):
+            for beams in (1, 7, 180):
+                got = _native.visible_unknown(occ, cells, radius, beams=beams, free_threshold=25)
+                want = [reference_visible_unknown(occ, tuple(c), radius, beams) for c in cells]
+                assert got.dtype == np.int32
+                assert got.tolist() == want, (trial, radius, beams)
+
+
+def test_visible_unknown_open_disc():
+    # A free cell amid unknown space sees the whole disc of radius 10 cells except itself:
+    # the lattice points with dr^2 + dc^2 <= 100 number 317 (Gauss's circle problem, N(10)),
+    # so 316 unknown cells (pi r^2 = 314.2). 360 beams leave no gap at 10 cells (arc 0.17
+    # cell per beam); 180 beams (arc 0.35 cell) miss a few cells near the rim.
+    occ = np.full((41, 41), UNKNOWN, np.int8)
+    occ[20, 20] = FREE
+    centre = np.array([[20, 20]], np.int32)
+    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
+    assert 0.95 * 316 <= _native.visible_unknown(occ, centre, 10.0, beams=180)[0] < 316
+    # An unknown query cell counts itself: 317.
+    occ[20, 20] = UNKNOWN
+    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 317
+
+
+def test_visible_unknown_wall_blocks_the_view():
+    # A full wall column 3 cells to the right of the free query cell: every ray going right
+    # crosses column dc = 3 (Bresenham moves at most one column per step) and stops there.
+    # Visible: the disc cells with dc <= 2, less the query cell. Per column dc, the rows
+    # with dr^2 <= 100 - dc^2 number 2 floor(sqrt(100 - dc^2)) + 1:
+    #   dc = -10..2 -> 1, 9, 13, 15, 17, 17, 19, 19, 19, 19, 21, 19, 19 = 207; minus 1 = 206.
+    # (dc = 3..10 add 19, 19, 17, 17, 15, 13, 9, 1 = 110: 317 in all, as in the open disc.)
+    occ = np.full((41, 41), UNKNOWN, np.int8)
+    occ[20, 20] = FREE
+    occ[:, 23] = WALL
+    centre = np.array([[20, 20]], np.int32)
+    assert sum(2 * math.isqrt(100 - dc * dc) + 1 for dc in range(-10, 3)) == 207
+    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 206
+    # Without the wall: 316 (test above).
+    occ[:, 23] = UNKNOWN
+    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
+
+
+def test_visible_unknown_along_a_corridor():
+    # One row: free query at col 0, unknown to the right, radius 5: cols 1..5 -> 5.
+    row = np.full((1, 20), UNKNOWN, np.int8)
+    row[0, 0] = FREE
+    query = np.array([[0, 0]], np.int32)
+    assert _native.visible_unknown(row, query, 5.0)[0] == 5
+    row[0, 3] = 26          # occupied (> 25): only cols 1, 2 -> 2
+    assert _native.visible_unknown(row, query, 5.0)[0] == 2
+    row[0, 3] = 25          # free: cols 1, 2, 4, 5 -> 4
+    assert _native.visible_unknown(row, query, 5.0)[0] == 4
+    assert _native.visible_unknown(row, query, 5.0, free_threshold=20)[0] == 2
+    # The query cell never blocks its own rays, even when it is occupied.
+    row[0, 0] = WALL
+    row[0, 3] = UNKNOWN
+    assert _native.visible_unknown(row, query, 5.0)[0] == 5
+
+
+def test_visible_unknown_arguments():
+    occ = np.full((8, 8), UNKNOWN, np.int8)
+    cells = np.array([[1, 2], [5, 6]], np.int32)
+    got = _native.visible_unknown(occ, cells, 3.0)
+    # Any layout is accepted (converted): a Fortran-ordered copy gives the same counts.
+    fortran = _native.visible_unknown(np.asfortranarray(occ), np.asfortranarray(cells), 3.0)
+    assert fortran.tolist() == got.tolist()
+    assert _native.visible_unknown(occ, np.zeros((0, 2), np.int32), 3.0).shape == (0,)
+    with pytest.raises(ValueError, match="outside"):
+        _native.visible_unknown(occ, np.array([[8, 0]], np.int32), 3.0)
+    with pytest.raises(ValueError, match="beams"):
+        _native.visible_unknown(occ, cells, 3.0, beams=0)
+    with pytest.raises(ValueError, match=r"\(n, 2\)"):
+        _native.visible_unknown(occ, np.array([1, 2, 3], np.int32), 3.0)
