@@ -41,7 +41,9 @@ class MapperBadInput(unittest.TestCase):
         rospy.sleep(1.0)
         now = rospy.Time.now
         good = [1.0] * 360                                      # a round room of radius 1 m
+        # one update per cell per scan: p_miss = 0.4 three times gives p = 0.23 <= 0.25, free
         for scan in [make_scan(good, now()),
+                     make_scan(good, now()),
                      make_scan([], now()),                       # empty
                      make_scan([1.0] * 100, now()),              # 100 ranges, header says 360
                      make_scan([float("nan")] * 360, now()),     # all NaN: used, every beam skipped
@@ -62,7 +64,7 @@ class MapperBadInput(unittest.TestCase):
         rospy.sleep(1.0)
         line = [m for m in logs if "map saved (~save_map)" in m]
         self.assertTrue(line, logs)
-        self.assertIn("3 scans inserted", line[-1])
+        self.assertIn("4 scans inserted", line[-1])
         for reason in ("empty 1", "length_mismatch 1", "scan_tf_extrapolation 1", "scan_no_tf 1", "nan 360"):
             self.assertIn(reason, line[-1])
         m = rospy.wait_for_message("/map", OccupancyGrid, timeout=5)   # still publishing
