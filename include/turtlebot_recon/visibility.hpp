@@ -1,4 +1,5 @@
 // Information gain of a viewpoint: the unknown cells a 2-D lidar at that cell could reveal.
+// (visible_cells, at the end, walks the same rays for the evaluator's line of sight.)
 //
 // For each query cell, `beams` rays at angles 2 pi k / beams (k = 0 .. beams - 1; angle 0
 // along +col = +x, pi / 2 along +row = +y) are walked cell by cell with Bresenham's line
@@ -36,10 +37,10 @@ struct VisibilityParams {
   int free_threshold = 25;     // known values above this are occupied and block rays
 };
 
-// Throws std::invalid_argument ("visible_unknown: ...") naming the first bad parameter.
-inline void validate(const VisibilityParams& p) {
-  auto fail = [](const std::string& what) {
-    throw std::invalid_argument("visible_unknown: " + what);
+// Throws std::invalid_argument ("<who>: ...") naming the first bad parameter.
+inline void validate(const VisibilityParams& p, const char* who = "visible_unknown") {
+  auto fail = [who](const std::string& what) {
+    throw std::invalid_argument(std::string(who) + ": " + what);
   };
   if (!(std::isfinite(p.radius_cells) && p.radius_cells >= 0))
     fail("radius_cells must be a finite number >= 0, got " + std::to_string(p.radius_cells));
@@ -132,6 +133,53 @@ inline void visible_unknown(const std::int8_t* occupancy, int rows, int cols,
       });
     }
     counts_out[i] = count;
+  }
+}
+
+// Line of sight from a set of viewpoints (evaluation: the free space a lidar can see, DESIGN §6).
+//
+// blocking: row-major (rows, cols) mask, != 0 where a cell stops rays (a wall).
+// points: n viewpoints as (row, col) pairs, points[2 i] = row; each must lie on the grid.
+// seen_out: (rows, cols), set to true on every cell that some ray of some viewpoint reaches,
+//   false elsewhere.
+// The rays are those of visible_unknown (same beam_ends, same walk_ray, same disc of radius
+// radius_cells), and a ray stops at the first blocking cell, beyond the disc or at the grid's
+// edge. A blocking cell is never marked seen: a lidar sees a wall's surface, but the evaluator
+// only needs the free cells. A viewpoint's own cell never stops its rays (the sensor sits
+// there) and is seen unless it is blocking.
+inline void visible_cells(const std::uint8_t* blocking, int rows, int cols,
+                          const std::int32_t* points, size_t n, double radius_cells, int beams,
+                          bool* seen_out) {
+  const VisibilityParams p{radius_cells, beams};
+  validate(p, "visible_cells");
+  for (size_t i = 0; i < n; ++i) {
+    const int r = points[2 * i], c = points[2 * i + 1];
+    if (r < 0 || r >= rows || c < 0 || c >= cols)
+      throw std::invalid_argument("visible_cells: point " + std::to_string(i) + " (" +
+                                  std::to_string(r) + ", " + std::to_string(c) +
+                                  ") is outside the " + std::to_string(rows) + " x " +
+                                  std::to_string(cols) + " grid");
+  }
+  std::fill(seen_out, seen_out + static_cast<size_t>(rows) * cols, false);
+  const std::vector<std::pair<int, int>> ends = beam_ends(p);
+  const double r2_max = p.radius_cells * p.radius_cells;
+
+  for (size_t i = 0; i < n; ++i) {
+    const int r0 = points[2 * i], c0 = points[2 * i + 1];
+    for (const auto& [end_r, end_c] : ends) {
+      walk_ray(end_r, end_c, [&](int dr, int dc) {
+        // 1. Range: the first cell beyond the disc ends the ray.
+        if (static_cast<double>(dr * dr + dc * dc) > r2_max) return false;
+        // 2. The grid's edge ends the ray.
+        const int r = r0 + dr, c = c0 + dc;
+        if (r < 0 || r >= rows || c < 0 || c >= cols) return false;
+        const size_t k = static_cast<size_t>(r) * cols + c;
+        // 3. A blocking cell (other than the sensor's own) ends the ray, unseen.
+        if (blocking[k] != 0) return dr == 0 && dc == 0;
+        seen_out[k] = true;
+        return true;
+      });
+    }
   }
 }
 

@@ -1,6 +1,7 @@
 // Exploration area of turtlebot_recon._native: information gain of frontier viewpoints by
-// ray casting. The algorithm lives in visibility.hpp (no pybind11 there); this file only
-// converts numpy arrays, checks shapes and releases the GIL around the loop.
+// ray casting, and the line of sight of a set of viewpoints (for the evaluator). The
+// algorithms live in visibility.hpp (no pybind11 there); this file only converts numpy
+// arrays, checks shapes and releases the GIL around the loops.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
@@ -18,6 +19,7 @@ namespace {
 constexpr auto kInFlags = py::array::c_style | py::array::forcecast;
 using I8Grid = py::array_t<std::int8_t, kInFlags>;
 using I32Array = py::array_t<std::int32_t, kInFlags>;
+using U8Grid = py::array_t<std::uint8_t, kInFlags>;
 
 [[noreturn]] void fail(const std::string& what) {
   throw std::invalid_argument("visible_unknown: " + what);  // ValueError in Python
@@ -45,6 +47,28 @@ py::array_t<std::int32_t> py_visible_unknown(const I8Grid& occupancy, const I32A
   return out;
 }
 
+py::array_t<bool> py_visible_cells(const U8Grid& blocking, const I32Array& points,
+                                   double radius_cells, int beams) {
+  auto bad = [](const std::string& what) {
+    throw std::invalid_argument("visible_cells: " + what);
+  };
+  if (blocking.ndim() != 2)
+    bad("blocking must be a 2-D (rows, cols) array, got " + std::to_string(blocking.ndim()) +
+        "-D");
+  if (!(points.size() == 0 || (points.ndim() == 2 && points.shape(1) == 2)))
+    bad("points must be an (n, 2) array of (row, col)");
+  const int rows = static_cast<int>(blocking.shape(0));
+  const int cols = static_cast<int>(blocking.shape(1));
+  const auto n = static_cast<size_t>(points.size() / 2);
+  py::array_t<bool> seen({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(cols)});
+  bool* dst = seen.mutable_data();
+  {
+    py::gil_scoped_release release;
+    te::visible_cells(blocking.data(), rows, cols, points.data(), n, radius_cells, beams, dst);
+  }
+  return seen;
+}
+
 }  // namespace
 
 void register_exploration(py::module_& m) {
@@ -56,4 +80,12 @@ void register_exploration(py::module_& m) {
         "radius_cells (centre to centre) before an occupied cell (0..100, > free_threshold)\n"
         "or the grid's edge stops them. Unknown cells let rays through; the query cell never\n"
         "stops them. Returns int32 (n,). ValueError if a query cell is off the grid.");
+  m.def("visible_cells", &py_visible_cells, py::arg("blocking"), py::arg("points"),
+        py::arg("radius_cells"), py::arg("beams") = 360,
+        "Line of sight: bool (rows, cols), true on every cell that some of `beams` Bresenham\n"
+        "rays (the rays of visible_unknown) from some viewpoint of `points` (int32 (n, 2) of\n"
+        "(row, col)) reaches within radius_cells (centre to centre) before a blocking cell\n"
+        "(`blocking` uint8 (rows, cols) != 0) or the grid's edge stops it. Blocking cells are\n"
+        "never seen; a viewpoint's own cell does not stop its rays. ValueError if a point is\n"
+        "off the grid.");
 }
