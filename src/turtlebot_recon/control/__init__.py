@@ -1,0 +1,69 @@
+"""Control: the controller contract and its implementations (ROS-free, never blocking).
+
+Every controller (the pure pursuit follower now, MPPI / DWA in a later issue) implements one
+small contract, ``Controller``: ``reset()`` when a navigation goal starts or is cancelled, and
+``compute(ControlInput) -> ControlOutput`` once per control period. The caller (the navigator)
+owns time, TF, the global plan and replanning; a controller only turns the plan, the pose and
+the costmap into one velocity command and a status:
+
+- ``following``: driving along the path;
+- ``rotating``:  turning in place, toward the path or, at the goal, to ``goal_yaw``;
+- ``arrived``:   within the goal tolerances; zero command;
+- ``blocked``:   the way ahead (or the robot's own cell) is in collision; zero command; replan;
+- ``no_path``:   fewer than two usable waypoints; zero command.
+
+Poses and paths are in the map frame (m, rad), velocities in the robot frame (REP-103: +x
+forward, +w counter-clockwise). Costmaps follow the Nav2 convention (0 free .. 252 graded,
+253 inscribed, 254 lethal, 255 unknown), row 0 at the smallest y, cell (r, c) centred at
+origin + ((c + 0.5) res, (r + 0.5) res).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Protocol, runtime_checkable
+
+import numpy as np
+
+FOLLOWING, ROTATING, ARRIVED, BLOCKED, NO_PATH = (
+    "following", "rotating", "arrived", "blocked", "no_path")
+STATUSES = (FOLLOWING, ROTATING, ARRIVED, BLOCKED, NO_PATH)
+
+
+# eq=False: the fields hold numpy arrays, whose == is elementwise; inputs compare by identity.
+@dataclass(frozen=True, eq=False)
+class ControlInput:
+    """One control period's inputs (map frame unless stated)."""
+    now_s: float                 # time of this step (s); controllers with memory in time use it
+    pose: tuple                  # (x m, y m, yaw rad)
+    velocity: tuple              # measured (v m/s, w rad/s), robot frame
+    path: np.ndarray             # float (n, 2) waypoints, start .. goal (the global plan)
+    goal_yaw: Optional[float]    # final heading wanted (rad), or None for any
+    costmap: np.ndarray          # uint8 (rows, cols), Nav2 costs
+    resolution: float            # m per cell
+    origin: tuple                # (x m, y m[, yaw]) of the grid's corner; yaw must be 0
+
+
+@dataclass(frozen=True)
+class ControlOutput:
+    linear_mps: float
+    angular_radps: float
+    status: str                            # one of STATUSES
+    lookahead: Optional[tuple] = None      # (x, y) map-frame target point, for markers
+
+
+@runtime_checkable
+class Controller(Protocol):
+    def reset(self) -> None:
+        """Forget the path and all progress along it (a new goal, or a cancel)."""
+
+    def compute(self, inp: ControlInput) -> ControlOutput:
+        """The velocity command for this period; never blocks, never returns NaN."""
+
+
+# The contract above is defined before the implementations, which import it from here.
+from .follower import FollowerSettings, PurePursuit  # noqa: E402
+
+__all__ = [
+    "FOLLOWING", "ROTATING", "ARRIVED", "BLOCKED", "NO_PATH", "STATUSES",
+    "ControlInput", "ControlOutput", "Controller", "FollowerSettings", "PurePursuit",
+]

@@ -1,0 +1,91 @@
+"""Navigation core: plan on the costmap, follow, replan on map change, fail with a reason."""
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.config import from_dict, load_yaml
+from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
+from turtlebot_recon.robot import load_robot
+
+RES = 0.05
+TOP = Path(__file__).resolve().parents[2]
+
+
+def room(width_cells=80, height_cells=60):
+    """A walled room; the map origin is (0, 0), so the free area is [0.05, 3.95] x [0.05, 2.95]."""
+    occ = np.zeros((height_cells, width_cells), np.int8)
+    occ[0, :] = occ[-1, :] = 100
+    occ[:, 0] = occ[:, -1] = 100
+    return occ
+
+
+def drive(nav, pose, seconds, dt=0.1):
+    """Integrate a unicycle under the navigator's commands; returns the final pose."""
+    x, y, yaw = pose
+    for k in range(int(seconds / dt)):
+        v, w = nav.step(k * dt, (x, y, yaw), (0.0, 0.0))
+        x += v * dt * math.cos(yaw)
+        y += v * dt * math.sin(yaw)
+        yaw += w * dt
+        if nav.status != "active":
+            break
+    return x, y, yaw
+
+
+@pytest.fixture
+def nav():
+    n = Navigation(NavigationSettings(), load_robot("turtlebot3_burger"))
+    n.update_map(room(), RES, (0.0, 0.0))
+    return n
+
+
+def test_yaml_declares_every_setting_once():
+    data = load_yaml(TOP / "config" / "navigator.yaml")
+    assert set(data) == {f.name for f in dataclasses.fields(NavigationSettings)}
+    assert from_dict(NavigationSettings, data, "navigator.yaml") == NavigationSettings()
+
+
+def test_reaches_a_goal_across_the_room(nav):
+    nav.set_goal(3.0, 2.0)
+    x, y, _ = drive(nav, (1.0, 1.0, 0.0), 40.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.hypot(x - 3.0, y - 2.0) <= 0.1 + 1e-9       # the follower's xy tolerance
+
+
+def test_goal_in_a_wall_fails_with_a_reason(nav):
+    nav.set_goal(10.0, 1.0)                                   # off the map
+    drive(nav, (1.0, 1.0, 0.0), 1.0)
+    assert nav.status == "failed" and "goal (10.00, 1.00)" in nav.reason
+
+
+def test_goal_behind_a_closed_wall_is_unreachable(nav):
+    occ = room()
+    occ[:, 40] = 100                                          # a wall across the room at x = 2.0
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(3.0, 1.5)
+    drive(nav, (1.0, 1.5, 0.0), 1.0)
+    assert nav.status == "failed" and "unreachable" in nav.reason
+
+
+def test_map_change_along_the_path_triggers_a_replan(nav):
+    nav.set_goal(3.5, 1.5)
+    nav.step(0.0, (0.5, 1.5, 0.0), (0.0, 0.0))
+    assert len(nav.dense_xy) > 10 and not nav._need_plan
+    occ = room()
+    occ[20:40, 40] = 100                                      # a wall appears across the straight path
+    nav.update_map(occ, RES, (0.0, 0.0))
+    assert nav._need_plan
+    nav.step(0.1, (0.5, 1.5, 0.0), (0.0, 0.0))
+    cells = [(int(y / RES), int(x / RES)) for x, y in nav.dense_xy]
+    assert all(nav.map.costmap[c] < 253 for c in cells)      # the new plan goes around it
+
+
+def test_cancel_and_bad_goals(nav):
+    nav.set_goal(3.0, 2.0)
+    nav.cancel()
+    assert nav.status == "idle" and nav.step(0.0, (1.0, 1.0, 0.0), (0, 0)) == (0.0, 0.0)
+    nav.set_goal(float("nan"), 1.0)
+    assert nav.status == "failed" and "not finite" in nav.reason
