@@ -65,3 +65,27 @@ def drive(sim, linear, angular, seconds):
         if k % 10 == 0:
             sim.set_command(linear, angular)
         sim.step()
+
+
+def bresenham(a, b, include_end=True):
+    """Cells of the Bresenham line a -> b, (row, col) pairs in order from a; b last, or left
+    out with ``include_end=False`` (then a line from a cell to itself is empty).
+
+    The plain-Python reference for the C++ walk (include/turtlebot_recon/bresenham.hpp): one
+    step per cell along the major axis, max(|d row|, |d col|) steps, ties stepping both axes.
+    """
+    (r, c), (r1, c1) = (int(a[0]), int(a[1])), (int(b[0]), int(b[1]))
+    ar, sr = abs(r1 - r), (1 if r < r1 else -1)
+    ac, sc = abs(c1 - c), (1 if c < c1 else -1)
+    err = ar - ac
+    cells = []
+    for _ in range(max(ar, ac) + (1 if include_end else 0)):
+        cells.append((r, c))
+        e2 = 2 * err
+        if e2 >= -ac:
+            err -= ac
+            r += sr
+        if e2 <= ar:
+            err += ar
+            c += sc
+    return cells

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "turtlebot_recon/bresenham.hpp"
 #include "turtlebot_recon/costmap.hpp"
 
 namespace turtlebot_recon::planning {
@@ -359,28 +360,6 @@ class GridSearch {
   std::unique_ptr<std::uint8_t[]> reached_by_;  // the move k by which g was reached
 };
 
-// Calls visit(cell) for each cell of the Bresenham line a -> b (both ends included, in
-// order) until visit returns false; returns whether every call returned true.
-template <class Visit>
-bool bresenham_line(Cell a, Cell b, Visit visit) {
-  const int dr = std::abs(b.row - a.row), sr = a.row < b.row ? 1 : -1;
-  const int dc = -std::abs(b.col - a.col), sc = a.col < b.col ? 1 : -1;
-  int err = dr + dc, r = a.row, c = a.col;
-  while (true) {
-    if (!visit(Cell{r, c})) return false;
-    if (r == b.row && c == b.col) return true;
-    const int e2 = 2 * err;
-    if (e2 >= dc) {  // step in rows
-      err += dc;
-      r += sr;
-    }
-    if (e2 <= dr) {  // step in columns
-      err += dr;
-      c += sc;
-    }
-  }
-}
-
 // Line-of-sight shortcut of a grid path (seed 001's refinePath, seed 003's two-pointer
 // shortcut). From waypoint i, keep the farthest later index j whose Bresenham line i -> j
 // stays on cells with cost < lethal_cost and <= the highest cost of the path cells i..j (so
@@ -416,7 +395,9 @@ inline std::vector<Cell> shortcut_path(const std::vector<Cell>& path, const std:
     int j = n - 1;
     for (; j > i + 1; --j) {
       const int limit = ceiling[j];
-      if (bresenham_line(path[i], path[j], [&](Cell c) { return cost_at(c) <= limit; })) break;
+      const bool clear = bresenham_line(path[i].row, path[i].col, path[j].row, path[j].col,
+                                        [&](int r, int c) { return cost_at(Cell{r, c}) <= limit; });
+      if (clear) break;
     }
     // 3. Keep j and continue from it.
     out.push_back(path[j]);

@@ -29,6 +29,8 @@
 #include <utility>
 #include <vector>
 
+#include "turtlebot_recon/bresenham.hpp"
+
 namespace turtlebot_recon::exploration {
 
 struct VisibilityParams {
@@ -65,27 +67,6 @@ inline std::vector<std::pair<int, int>> beam_ends(const VisibilityParams& p) {
   return ends;
 }
 
-// Calls visit(dr, dc) for each cell of the Bresenham line (0, 0) -> (end_r, end_c), in
-// order, until visit returns false.
-template <class Visit>
-void walk_ray(int end_r, int end_c, Visit visit) {
-  const int ar = std::abs(end_r), sr = end_r < 0 ? -1 : 1;
-  const int ac = -std::abs(end_c), sc = end_c < 0 ? -1 : 1;
-  int err = ar + ac, r = 0, c = 0;
-  while (visit(r, c)) {
-    if (r == end_r && c == end_c) return;
-    const int e2 = 2 * err;
-    if (e2 >= ac) {  // step in rows
-      err += ac;
-      r += sr;
-    }
-    if (e2 <= ar) {  // step in columns
-      err += ar;
-      c += sc;
-    }
-  }
-}
-
 // occupancy: ROS int8 values (< 0 unknown, 0..100), row-major (rows, cols).
 // cells: n query cells as (row, col) pairs, cells[2 i] = row; each must lie on the grid.
 // counts_out: n counts of distinct unknown cells visible from each query cell.
@@ -112,7 +93,7 @@ inline void visible_unknown(const std::int8_t* occupancy, int rows, int cols,
     const std::uint32_t query = static_cast<std::uint32_t>(i) + 1;  // 0 = never counted
     std::int32_t count = 0;
     for (const auto& [end_r, end_c] : ends) {
-      walk_ray(end_r, end_c, [&](int dr, int dc) {
+      bresenham_line(0, 0, end_r, end_c, [&](int dr, int dc) {
         // 1. Range: the first cell beyond the disc ends the ray.
         if (static_cast<double>(dr * dr + dc * dc) > r2_max) return false;
         // 2. The grid's edge ends the ray.
@@ -142,8 +123,8 @@ inline void visible_unknown(const std::int8_t* occupancy, int rows, int cols,
 // points: n viewpoints as (row, col) pairs, points[2 i] = row; each must lie on the grid.
 // seen_out: (rows, cols), set to true on every cell that some ray of some viewpoint reaches,
 //   false elsewhere.
-// The rays are those of visible_unknown (same beam_ends, same walk_ray, same disc of radius
-// radius_cells), and a ray stops at the first blocking cell, beyond the disc or at the grid's
+// The rays are those of visible_unknown (same beam_ends, same Bresenham walk from (0, 0), same
+// disc of radius radius_cells), and a ray stops at the first blocking cell, beyond the disc or at the grid's
 // edge. A blocking cell is never marked seen: a lidar sees a wall's surface, but the evaluator
 // only needs the free cells. A viewpoint's own cell never stops its rays (the sensor sits
 // there) and is seen unless it is blocking.
@@ -167,7 +148,7 @@ inline void visible_cells(const std::uint8_t* blocking, int rows, int cols,
   for (size_t i = 0; i < n; ++i) {
     const int r0 = points[2 * i], c0 = points[2 * i + 1];
     for (const auto& [end_r, end_c] : ends) {
-      walk_ray(end_r, end_c, [&](int dr, int dc) {
+      bresenham_line(0, 0, end_r, end_c, [&](int dr, int dc) {
         // 1. Range: the first cell beyond the disc ends the ray.
         if (static_cast<double>(dr * dr + dc * dc) > r2_max) return false;
         // 2. The grid's edge ends the ray.

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "turtlebot_recon/bresenham.hpp"
+
 namespace turtlebot_recon {
 
 namespace {
@@ -161,31 +163,19 @@ inline void OccupancyGrid::update(float& l, float delta) const {
 // Bresenham's line from the sensor cell to the end cell: a miss on every cell before the
 // end cell (the sensor cell included) that this scan has not updated yet (a hit cell, or one
 // an earlier ray crossed), stamping it. The end cell is left alone (its hit, if any, is done).
-// Walks one offset into the log-odds and stamp buffers (one step = +-1 column or +-1 row),
-// one cell per step along the main axis, max(|d col|, |d row|) cells in all.
+// Walks one offset into the log-odds and stamp buffers (a row step is +-cols_ cells).
 void OccupancyGrid::trace_misses(const Cell& from, const Cell& to, std::uint32_t stamp) {
-  const int dc = std::abs(to.col - from.col), dr = -std::abs(to.row - from.row);
-  const std::ptrdiff_t step_c = from.col < to.col ? 1 : -1;
-  const std::ptrdiff_t step_r = from.row < to.row ? cols_ : -std::ptrdiff_t{cols_};
-  int err = dc + dr;
   float* const logodds = logodds_.data();
   std::uint32_t* const stamps = scan_stamps_.data();
-  std::ptrdiff_t i = static_cast<std::ptrdiff_t>(index(from));
-  for (int n = std::max(dc, -dr); n > 0; --n) {
-    if (stamps[i] != stamp) {
-      stamps[i] = stamp;
-      update(logodds[i], l_miss_);
-    }
-    const int e2 = 2 * err;
-    if (e2 >= dr) {  // step along x
-      err += dr;
-      i += step_c;
-    }
-    if (e2 <= dc) {  // step along y
-      err += dc;
-      i += step_r;
-    }
-  }
+  const auto start = static_cast<std::ptrdiff_t>(index(from));
+  bresenham_walk(start, to.row - from.row, to.col - from.col, std::ptrdiff_t{cols_},
+                 std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
+                   if (stamps[i] != stamp) {
+                     stamps[i] = stamp;
+                     update(logodds[i], l_miss_);
+                   }
+                   return true;
+                 });
 }
 
 // ---------------------------------------------------------------------------------------

@@ -12,31 +12,13 @@ from turtlebot_recon.evaluation.coverage import lattice_points
 from turtlebot_recon.evaluation.metrics import map_cells_in_world
 from turtlebot_recon.sim import load_world
 
-from conftest import room, write_world
+from conftest import bresenham, room, write_world
 
 RES = 0.05
 BURGER_RADIUS_M = 0.105
 
 
 # ---------------------------------------------------------------- visible_cells (C++)
-
-def bresenham(end_r, end_c):
-    """Cells of the line (0, 0) -> (end_r, end_c), the same integer walk as walk_ray."""
-    ar, sr = abs(end_r), (-1 if end_r < 0 else 1)
-    ac, sc = -abs(end_c), (-1 if end_c < 0 else 1)
-    err, r, c = ar + ac, 0, 0
-    while True:
-        yield r, c
-        if (r, c) == (end_r, end_c):
-            return
-        e2 = 2 * err
-        if e2 >= ac:
-            err += ac
-            r += sr
-        if e2 <= ar:
-            err += ar
-            c += sc
-
 
 def reference_visible_cells(blocking, points, radius, beams):
     """Union over the points of the cells on `beams` rays, each ray stopped beyond `radius`
@@ -49,7 +31,7 @@ def reference_visible_cells(blocking, points, radius, beams):
             angle = 2.0 * math.pi * k / beams
             end_r = math.floor(radius * math.sin(angle) + 0.5)
             end_c = math.floor(radius * math.cos(angle) + 0.5)
-            for dr, dc in bresenham(end_r, end_c):
+            for dr, dc in bresenham((0, 0), (end_r, end_c)):
                 if dr * dr + dc * dc > radius * radius:
                     break
                 r, c = r0 + dr, c0 + dc

@@ -17,29 +17,13 @@ from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, de
 from turtlebot_recon.planning import CostmapSettings, dijkstra, make_costmap, nearest_accessible
 from turtlebot_recon.robot import load_robot
 
+from conftest import bresenham
+
 RES = 0.05
 UNKNOWN, FREE, WALL = -1, 0, 100
 
 
 # ---------------------------------------------------------------- references and factories
-
-def bresenham(end_r, end_c):
-    """Cells of the Bresenham line (0, 0) -> (end_r, end_c), both ends included."""
-    ar, sr = abs(end_r), (-1 if end_r < 0 else 1)
-    ac, sc = -abs(end_c), (-1 if end_c < 0 else 1)
-    err, r, c = ar + ac, 0, 0
-    while True:
-        yield r, c
-        if (r, c) == (end_r, end_c):
-            return
-        e2 = 2 * err
-        if e2 >= ac:
-            err += ac
-            r += sr
-        if e2 <= ar:
-            err += ar
-            c += sc
-
 
 def reference_visible_unknown(occ, cell, radius, beams, free_threshold=25):
     """Distinct unknown cells on `beams` rays from `cell`, each stopped beyond `radius`
@@ -50,7 +34,7 @@ def reference_visible_unknown(occ, cell, radius, beams, free_threshold=25):
         angle = 2.0 * math.pi * k / beams
         end_r = math.floor(radius * math.sin(angle) + 0.5)
         end_c = math.floor(radius * math.cos(angle) + 0.5)
-        for dr, dc in bresenham(end_r, end_c):
+        for dr, dc in bresenham((0, 0), (end_r, end_c)):
             if dr * dr + dc * dc > radius * radius:
                 break
             r, c = cell[0] + dr, cell[1] + dc

@@ -21,6 +21,8 @@ import pytest
 from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.mapping import GridSettings, OccupancyGrid, ScanStats, make_grid
 
+from conftest import bresenham
+
 HIT, MISS, L_MIN, L_MAX = 0.847298, -0.405465, -1.992430, 3.476099
 INF, NAN = math.inf, math.nan
 
@@ -32,26 +34,6 @@ def logit(p):
 # ----------------------------------------------------------------------------------------
 # Reference implementation: plain loops over a dict of global cells (no growth needed, no numpy),
 # with the per-scan cell sets of OctoMap's insertPointCloud / computeUpdate.
-
-def bresenham(r0, c0, r1, c1):
-    """Cells from (r0, c0) up to, not including, (r1, c1)."""
-    cells = []
-    dc, dr = abs(c1 - c0), -abs(r1 - r0)
-    sc = 1 if c0 < c1 else -1
-    sr = 1 if r0 < r1 else -1
-    err = dc + dr
-    r, c = r0, c0
-    while (r, c) != (r1, c1):
-        cells.append((r, c))
-        e2 = 2 * err
-        if e2 >= dr:
-            err += dr
-            c += sc
-        if e2 <= dc:
-            err += dc
-            r += sr
-    return cells
-
 
 def classify(r, range_min, range_max, clear_m, cap_m):
     """(kind, reach_m, hit) of one beam, REP-117 plus the LDS-01 driver's 0.0."""
@@ -95,7 +77,7 @@ class Reference:
             rays.append((self.global_cell(sx + reach * math.cos(a), sy + reach * math.sin(a)), hit))
         hits, crossed = set(), set()
         for end, hit in rays:
-            crossed.update(bresenham(sensor[0], sensor[1], end[0], end[1]))
+            crossed.update(bresenham(sensor, end, include_end=False))
             if hit:
                 hits.add(end)
         for cell in hits:                 # one hit each, even if some ray crosses it
@@ -139,7 +121,7 @@ def test_reference_bresenham_is_a_connected_line_close_to_the_ideal():
     rng = np.random.default_rng(7)
     for _ in range(200):
         r0, c0, r1, c1 = (int(v) for v in rng.integers(-30, 30, 4))
-        cells = bresenham(r0, c0, r1, c1) + [(r1, c1)]
+        cells = bresenham((r0, c0), (r1, c1), include_end=False) + [(r1, c1)]
         assert cells[0] == (r0, c0)
         assert len(cells) == max(abs(r1 - r0), abs(c1 - c0)) + 1       # one cell per main-axis step
         for (ra, ca), (rb, cb) in zip(cells, cells[1:]):
@@ -370,7 +352,7 @@ def test_grazing_beams_do_not_erode_a_wall():
         a = 0.0 + float(angles[0]) + i * math.radians(0.5)       # as insert_scan computes it
         end = ref.global_cell(0.05 + r * math.cos(a), 0.05 + r * math.sin(a))
         hits.add(end)
-        crossed.update(bresenham(50, 50, *end))
+        crossed.update(bresenham((50, 50), end, include_end=False))
     assert {r for r, _ in hits} == {60}                           # every return is on the wall
     # ... and the test means something: 16 of the 55 wall cells are crossed, 10 of them by two
     # beams (per beam those would end at 0.847298 - 2 * 0.405465 = 0.036368, p = 0.51)

@@ -18,6 +18,8 @@ from turtlebot_recon.planning import (CostmapSettings, PlannerSettings, Planning
                                       make_costmap, plan)
 from turtlebot_recon.robot import load_robot
 
+from conftest import bresenham
+
 RES = 0.05
 SQRT2 = math.sqrt(2.0)
 LETHAL, INSCRIBED, UNKNOWN = 254, 253, 255
@@ -81,26 +83,6 @@ def reference_dijkstra(cost, start, visits=None, visit_sensitivity=0.5, cost_wei
                 dist[r + dr, c + dc] = nd
                 heapq.heappush(heap, (nd, (r + dr, c + dc)))
     return dist
-
-
-def bresenham(a, b):
-    """Cells of the line a -> b, both ends included (the same integer algorithm as the C++)."""
-    (r, c), (r1, c1) = a, b
-    dr, sr = abs(r1 - r), (1 if r < r1 else -1)
-    dc, sc = -abs(c1 - c), (1 if c < c1 else -1)
-    err = dr + dc
-    cells = []
-    while True:
-        cells.append((r, c))
-        if (r, c) == (r1, c1):
-            return cells
-        e2 = 2 * err
-        if e2 >= dc:
-            err += dc
-            r += sr
-        if e2 <= dr:
-            err += dr
-            c += sc
 
 
 def check_path(path, cost, start, goal, **model):
