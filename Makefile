@@ -11,18 +11,21 @@ ENV    := source $(TOP)/tools/env.sh &&
 
 # Options for run / sim (also launch arguments).
 WORLD    ?= house
-ROBOT    ?= turtlebot3_waffle_pi
+ROBOT    ?= turtlebot3_burger
+STRATEGY ?= recon
 RTF      ?= 0
 SEED     ?= 0
+BUDGET   ?= 1800
 DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run sim bench-sim bench-map worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
-	@echo "make run         simulate WORLD=$(WORLD) headless with a scripted drive (exploration comes later)"
+	@echo "make run         explore WORLD=$(WORLD) headless; map, plots and report in OUTPUT=$(OUTPUT)"
+	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
@@ -57,7 +60,12 @@ test: build
 	$(ENV) python -m pytest test -q -p no:cacheprovider
 
 run: build
-	@echo "[run] No autonomous exploration yet: simulating '$(WORLD)' headless with a scripted drive for $(DURATION) s sim time."
+	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), headless; output in $(OUTPUT)"
+	$(ENV) roslaunch turtlebot_recon explore_sim.launch world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) \
+	  rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT))
+	@echo "[run] done: $(abspath $(OUTPUT))/report.md"
+
+wander: build
 	$(ENV) roslaunch turtlebot_recon run_sim.launch world:=$(WORLD) robot:=$(ROBOT) rtf:=$(RTF) \
 	  seed:=$(SEED) duration:=$(DURATION) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT))
 

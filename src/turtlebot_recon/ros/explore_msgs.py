@@ -1,0 +1,141 @@
+"""Messages of the explorer and the evaluator <-> core data (no algorithm here).
+
+- ``grid``: nav_msgs/OccupancyGrid -> (int8 (rows, cols), resolution, (x, y) origin).
+- ``ScanClearance``: sensor_msgs/LaserScan -> the supervisor's ``scan_clearance`` callable
+  (robot-frame bearing -> free distance for the robot's body, m).
+- ``nav_status``: an actionlib terminal state -> the supervisor's navigator status word.
+- ``frontier_markers``: frontiers, the chosen goal and the tour -> visualization_msgs/MarkerArray.
+- ``pose_stamped``: (x, y, yaw) -> geometry_msgs/PoseStamped.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional, Sequence
+
+import numpy as np
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import Point, PoseStamped, Quaternion
+from nav_msgs.msg import OccupancyGrid
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from .convert import stamp, yaw_to_quaternion
+
+
+def grid(m: OccupancyGrid) -> tuple:
+    """(occupancy int8 (rows, cols), resolution m, (origin_x, origin_y) m) of a map message;
+    row 0 at the origin (the origin's rotation is assumed to be zero, as the mapper writes)."""
+    occ = np.asarray(m.data, dtype=np.int8).reshape(m.info.height, m.info.width)
+    return occ, float(m.info.resolution), (m.info.origin.position.x, m.info.origin.position.y)
+
+
+class ScanClearance:
+    """``clearance(bearing_rad) -> m``: how far the robot could drive straight along a
+    robot-frame bearing (0 ahead, + left) before its body, ``half_width_m`` either side of
+    its centre line, meets a scan return: min over the returns in that corridor of
+    forward distance - sqrt(w^2 - lateral^2). Returns are placed in the base frame with the
+    lidar's mounting offset (the lidar is level and faces forward on every TurtleBot).
+    A beam without a valid return (the driver's 0.0, inf, NaN, or out of [range_min,
+    range_max]) shows nothing within range, so a corridor without returns is range_max
+    long; a bearing outside the scan's field of view is 0 (unknown is not open)."""
+
+    def __init__(self, m: LaserScan, half_width_m: float, lidar_xy: Sequence[float] = (0.0, 0.0)):
+        r = np.asarray(m.ranges, dtype=float)
+        a = m.angle_min + m.angle_increment * np.arange(r.size)
+        ok = np.isfinite(r) & (r >= m.range_min) & (r <= m.range_max)
+        self.x = lidar_xy[0] + r[ok] * np.cos(a[ok])
+        self.y = lidar_xy[1] + r[ok] * np.sin(a[ok])
+        self.half_width_m, self.range_max = float(half_width_m), float(m.range_max)
+        span = abs(m.angle_increment) * max(r.size, 1)
+        self.full_circle = span >= 2.0 * math.pi - 1e-6
+        self.angle_min, self.angle_max = min(m.angle_min, m.angle_max), max(m.angle_min, m.angle_max)
+
+    def __call__(self, bearing_rad: float) -> float:
+        if not self.full_circle:
+            b = (bearing_rad - self.angle_min) % (2.0 * math.pi) + self.angle_min
+            if b > self.angle_max:
+                return 0.0
+        c, s = math.cos(bearing_rad), math.sin(bearing_rad)
+        forward = c * self.x + s * self.y
+        lateral = -s * self.x + c * self.y
+        w = self.half_width_m
+        hit = (np.abs(lateral) <= w) & (forward > 0.0)
+        if not hit.any():
+            return self.range_max
+        reach = forward[hit] - np.sqrt(w * w - lateral[hit] ** 2)
+        return float(max(0.0, min(self.range_max, reach.min())))
+
+
+def nav_status(state: Optional[int]) -> str:
+    """The supervisor's navigator status for an actionlib GoalStatus value (None: no goal)."""
+    if state is None:
+        return "idle"
+    if state in (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.PREEMPTING,
+                 GoalStatus.RECALLING):
+        return "active"
+    if state == GoalStatus.SUCCEEDED:
+        return "succeeded"
+    if state in (GoalStatus.ABORTED, GoalStatus.REJECTED):
+        return "failed"
+    return "idle"                            # PREEMPTED, RECALLED, LOST: nothing pursued
+
+
+def pose_stamped(x: float, y: float, yaw: Optional[float], frame: str, t_s: float) -> PoseStamped:
+    """A PoseStamped at (x, y) facing ``yaw``; ``yaw=None`` leaves the quaternion all zero,
+    the navigator's "any final heading" (it skips the final turn)."""
+    p = PoseStamped()
+    p.header.stamp, p.header.frame_id = stamp(t_s), frame
+    p.pose.position.x, p.pose.position.y = float(x), float(y)
+    p.pose.orientation = Quaternion(0.0, 0.0, 0.0, 0.0) if yaw is None else yaw_to_quaternion(yaw)
+    return p
+
+
+# Marker colours (r, g, b, a)
+_CLUSTER = (0.1, 0.6, 1.0, 0.9)        # reachable frontier cells
+_UNREACHABLE = (0.6, 0.6, 0.6, 0.6)    # frontier cells with no reachable goal
+_GOAL = (1.0, 0.55, 0.0, 0.9)          # each cluster's goal
+_CHOSEN = (1.0, 0.1, 0.1, 1.0)         # the goal being pursued
+_TOUR = (0.2, 0.8, 0.2, 0.9)           # the tour from the robot through the goals
+
+
+def frontier_markers(frontiers: Sequence, resolution: float, origin: Sequence[float],
+                     chosen: Optional[Sequence[float]], tour_xy: Sequence[Sequence[float]],
+                     robot_xy: Optional[Sequence[float]], frame: str, t_s: float) -> MarkerArray:
+    """``explore/frontiers``: namespace "cells" (a POINTS marker of every frontier cell,
+    unreachable clusters grey), "goals" (a SPHERE_LIST of the clusters' goals, the chosen one
+    red and larger in "chosen") and "tour" (a LINE_STRIP robot -> tour goals). Every marker is
+    re-sent each cycle with a fixed id, so an empty list clears the display."""
+    header_stamp = stamp(t_s)
+
+    def marker(ns: str, kind: int, scale: float, colour) -> Marker:
+        m = Marker()
+        m.header.stamp, m.header.frame_id = header_stamp, frame
+        m.ns, m.id, m.type, m.action = ns, 0, kind, Marker.ADD
+        m.pose.orientation.w = 1.0
+        m.scale.x = m.scale.y = m.scale.z = scale
+        m.color = ColorRGBA(*colour)
+        return m
+
+    cells = marker("cells", Marker.POINTS, resolution, _CLUSTER)
+    goals = marker("goals", Marker.SPHERE_LIST, 0.12, _GOAL)
+    for f in frontiers:
+        xy = np.column_stack([origin[0] + (f.cells[:, 1] + 0.5) * resolution,
+                              origin[1] + (f.cells[:, 0] + 0.5) * resolution])
+        colour = ColorRGBA(*(_CLUSTER if f.reachable else _UNREACHABLE))
+        cells.points.extend(Point(float(x), float(y), 0.02) for x, y in xy)
+        cells.colors.extend([colour] * len(xy))
+        if f.reachable:
+            goals.points.append(Point(f.goal[0], f.goal[1], 0.05))
+    chosen_m = marker("chosen", Marker.SPHERE_LIST, 0.22, _CHOSEN)
+    if chosen is not None:
+        chosen_m.points.append(Point(float(chosen[0]), float(chosen[1]), 0.05))
+    tour = marker("tour", Marker.LINE_STRIP, 0.03, _TOUR)
+    if robot_xy is not None and len(tour_xy):
+        tour.points = [Point(float(p[0]), float(p[1]), 0.04) for p in [robot_xy, *tour_xy]]
+    out = MarkerArray()
+    for m in (cells, goals, chosen_m, tour):
+        if not m.points:                     # rviz rejects empty POINTS/LINE markers: delete
+            m.action = Marker.DELETE
+        out.markers.append(m)
+    return out
