@@ -89,3 +89,21 @@ def bresenham(a, b, include_end=True):
             err += ar
             c += sc
     return cells
+
+
+def ray_cells(origin, radius, beams, shape):
+    """Reference rays of the C++ visibility walker: for each of ``beams`` bearings, the cells
+    (row, col, is_origin) of the Bresenham line from ``origin`` toward the point ``radius``
+    cells away, in order, stopping beyond ``radius`` (centre to centre) or at the grid's edge.
+    Callers decide which cells block the rest of a ray."""
+    rows, cols = shape
+    for k in range(beams):
+        angle = 2.0 * math.pi * k / beams
+        end = (math.floor(radius * math.sin(angle) + 0.5), math.floor(radius * math.cos(angle) + 0.5))
+        ray = []
+        for dr, dc in bresenham((0, 0), end):
+            r, c = origin[0] + dr, origin[1] + dc
+            if dr * dr + dc * dc > radius * radius or not (0 <= r < rows and 0 <= c < cols):
+                break
+            ray.append((r, c, (dr, dc) == (0, 0)))
+        yield ray

@@ -12,7 +12,7 @@ from turtlebot_recon.evaluation.coverage import lattice_points
 from turtlebot_recon.evaluation.metrics import map_cells_in_world
 from turtlebot_recon.sim import load_world
 
-from conftest import bresenham, room, write_world
+from conftest import ray_cells, room, write_world
 
 RES = 0.05
 BURGER_RADIUS_M = 0.105
@@ -24,21 +24,12 @@ def reference_visible_cells(blocking, points, radius, beams):
     """Union over the points of the cells on `beams` rays, each ray stopped beyond `radius`
     (centre to centre), at the grid's edge or on a blocking cell other than the point's own;
     blocking cells are never seen."""
-    rows, cols = blocking.shape
-    seen = np.zeros((rows, cols), bool)
-    for r0, c0 in points:
-        for k in range(beams):
-            angle = 2.0 * math.pi * k / beams
-            end_r = math.floor(radius * math.sin(angle) + 0.5)
-            end_c = math.floor(radius * math.cos(angle) + 0.5)
-            for dr, dc in bresenham((0, 0), (end_r, end_c)):
-                if dr * dr + dc * dc > radius * radius:
-                    break
-                r, c = r0 + dr, c0 + dc
-                if not (0 <= r < rows and 0 <= c < cols):
-                    break
+    seen = np.zeros(blocking.shape, bool)
+    for point in points:
+        for ray in ray_cells(tuple(point), radius, beams, blocking.shape):
+            for r, c, is_origin in ray:
                 if blocking[r, c]:
-                    if (dr, dc) != (0, 0):
+                    if not is_origin:
                         break
                 else:
                     seen[r, c] = True

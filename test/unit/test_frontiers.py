@@ -17,7 +17,7 @@ from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, de
 from turtlebot_recon.planning import CostmapSettings, dijkstra, make_costmap, nearest_accessible
 from turtlebot_recon.robot import load_robot
 
-from conftest import bresenham
+from conftest import ray_cells
 
 RES = 0.05
 UNKNOWN, FREE, WALL = -1, 0, 100
@@ -28,22 +28,13 @@ UNKNOWN, FREE, WALL = -1, 0, 100
 def reference_visible_unknown(occ, cell, radius, beams, free_threshold=25):
     """Distinct unknown cells on `beams` rays from `cell`, each stopped beyond `radius`
     (cells, centre to centre), at the grid's edge or on an occupied cell other than `cell`."""
-    rows, cols = occ.shape
     seen = set()
-    for k in range(beams):
-        angle = 2.0 * math.pi * k / beams
-        end_r = math.floor(radius * math.sin(angle) + 0.5)
-        end_c = math.floor(radius * math.cos(angle) + 0.5)
-        for dr, dc in bresenham((0, 0), (end_r, end_c)):
-            if dr * dr + dc * dc > radius * radius:
-                break
-            r, c = cell[0] + dr, cell[1] + dc
-            if not (0 <= r < rows and 0 <= c < cols):
-                break
+    for ray in ray_cells(tuple(cell), radius, beams, occ.shape):
+        for r, c, is_origin in ray:
             v = occ[r, c]
             if v < 0:
                 seen.add((r, c))
-            elif v > free_threshold and (dr, dc) != (0, 0):
+            elif v > free_threshold and not is_origin:
                 break
     return len(seen)
 
