@@ -114,7 +114,12 @@ ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
       hit = false;
     } else {
       ++stats.valid;
-      reach = r;
+      // The return is on the obstacle's surface: the solid side lies beyond it. Placing the
+      // hit half a cell further along the beam attributes it to the cell behind the surface,
+      // so range noise below half a cell never marks the free cell in front of a wall
+      // occupied (with the hit at the raw range, a wall on a cell boundary puts half the
+      // returns in front of it, and one hit outweighs one miss).
+      reach = r + 0.5 * settings_.resolution;
       hit = true;
     }
     const double angle = scan.sensor_yaw + scan.angle_min + static_cast<double>(i) * scan.angle_increment;

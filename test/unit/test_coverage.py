@@ -8,6 +8,7 @@ import pytest
 
 from turtlebot_recon import _native
 from turtlebot_recon.evaluation import CoverageTracker, reachable_cells, reachable_free_space
+from turtlebot_recon.evaluation import coverage as coverage_module
 from turtlebot_recon.evaluation.coverage import lattice_points
 from turtlebot_recon.evaluation.metrics import map_cells_in_world
 from turtlebot_recon.sim import load_world
@@ -298,6 +299,28 @@ def test_rotated_start_pose(tmp_path):
     assert wrong.update(0.0, occ, RES, origin) < 0.8
     # The default transform is the world's start pose.
     assert CoverageTracker(world, f).update(0.0, occ, RES, origin) == 1.0
+
+
+def test_a_perfect_map_on_a_grid_shifted_half_a_cell_covers_f(tmp_path, monkeypatch):
+    # Start (1.025, 1.525, 0) lies on a world cell centre, so the robot's cell boundaries run
+    # through the world's cell centres. The perfect robot map marks a cell free only if all
+    # four world cells it overlaps are free. A wall-face F cell's centre is a corner of four
+    # robot cells, two of which straddle the wall; its corner samples find the free ones.
+    start = (1.025, 1.525, 0.0)
+    world = load_world(write_world(tmp_path, "room", room(4.0, 3.0), start=list(start)))
+    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    origin = (world.origin[0] - start[0] - RES / 2, world.origin[1] - start[1] - RES / 2)
+    rows, cols = world.free.shape
+    all_free = np.zeros((rows + 1, cols + 1), bool)        # robot cell (i, j) overlaps world
+    padded = np.zeros((rows + 2, cols + 2), bool)          # cells i-1..i, j-1..j
+    padded[1:-1, 1:-1] = world.free
+    all_free[:] = padded[:-1, :-1] & padded[1:, :-1] & padded[:-1, 1:] & padded[1:, 1:]
+    occ = np.where(all_free, 0, 100).astype(np.int8)
+    assert CoverageTracker(world, f).update(0.0, occ, RES, origin) == 1.0
+    # Sampling the centres only (DESIGN §6 as written) misses a wall-face cell whenever the
+    # robot cell it picks straddles the wall: the room's east and north faces.
+    monkeypatch.setattr(coverage_module, "SAMPLE_OFFSETS", ((0.0, 0.0),))
+    assert CoverageTracker(world, f).update(0.0, occ, RES, origin) < 0.97
 
 
 def test_time_to_thresholds(room_world):

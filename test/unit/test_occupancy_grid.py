@@ -73,6 +73,8 @@ class Reference:
             stats[kind] += 1
             if reach is None:
                 continue
+            if hit:                       # the hit lies half a cell beyond the surface
+                reach += 0.5 * self.res
             a = syaw + angle_min + i * angle_inc
             rays.append((self.global_cell(sx + reach * math.cos(a), sy + reach * math.sin(a)), hit))
         hits, crossed = set(), set()
@@ -328,9 +330,10 @@ def test_occupied_wins_over_a_ray_crossing_a_hit_cell(ranges, kw, misses):
 
 def test_a_hit_in_the_sensor_cell_is_not_cleared_by_the_other_rays():
     grid = OccupancyGrid(0.1)
-    # 0.02 m (range_min 0.01) ends at x = 0.07, still in the sensor cell (50, 50): a hit there;
-    # the 1.0 m beam starts in that cell. Hit only: 0.847298 (per beam: 0.441833).
-    scan(grid, [0.02, 1.0], inc=0.0, range_min=0.01)
+    # From x = 0.01, 0.02 m (range_min 0.01) puts the hit at x = 0.01 + 0.02 + 0.05 (half a
+    # cell beyond the surface) = 0.08, still in the sensor cell (50, 50): a hit there; the
+    # 1.0 m beam starts in that cell. Hit only: 0.847298 (per beam: 0.441833).
+    scan(grid, [0.02, 1.0], x=0.01, inc=0.0, range_min=0.01)
     lo = grid.logodds()
     assert lo[50, 50] == pytest.approx(HIT, abs=1e-6)
     np.testing.assert_allclose(lo[50, 51:60], MISS, atol=1e-6)
@@ -591,3 +594,23 @@ def test_scans_and_reads_from_two_threads():
         done.set()
         t.join()
     assert len(set(shapes)) > 1 and grid.grow_count > 5   # the reader saw the grid grow
+
+
+def test_range_noise_does_not_mark_the_cell_in_front_of_a_wall_occupied():
+    """A wall face on a cell boundary (x = 1.0 m) seen through 1 cm range noise, as the
+    simulated LDS-01 reports it: about half the raw returns fall in the free cell in front of
+    the face. The hit is placed half a cell beyond the surface, so that cell stays free and
+    the face cell is occupied."""
+    grid = OccupancyGrid(0.05)
+    rng = np.random.default_rng(3)
+    sx, sy = 0.025, 0.525
+    angles = np.radians(np.arange(-15.0, 15.01, 1.0))
+    for _ in range(40):
+        ranges = (1.0 - sx) / np.cos(angles) + rng.normal(0.0, 0.01, angles.size)
+        grid.insert_scan(sx, sy, 0.0, ranges.astype(np.float32), float(angles[0]),
+                         float(angles[1] - angles[0]), 0.12, 3.5)
+    lo = grid.logodds()
+    col_front = int(math.floor((0.975 - grid.origin_x) / 0.05))   # cell [0.95, 1.0)
+    rows = [int(math.floor((y - grid.origin_y) / 0.05)) for y in np.arange(0.425, 0.63, 0.05)]
+    assert all(lo[r, col_front] < 0 for r in rows), [lo[r, col_front] for r in rows]
+    assert all(lo[r, col_front + 1] > 0 for r in rows), [lo[r, col_front + 1] for r in rows]

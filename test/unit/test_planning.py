@@ -580,7 +580,8 @@ def test_costmap_settings_for_robots():
     assert burger.inflation_radius_m == pytest.approx(0.455)
     assert burger.cost_scaling_factor == 5.0
     waffle = CostmapSettings.for_robot(load_robot("turtlebot3_waffle_pi"))
-    assert waffle.inscribed_radius_m == pytest.approx(0.281 / 2)  # half the smaller side
+    # the circumscribed radius about the axle: the body sweeps that disc turning in place
+    assert waffle.inscribed_radius_m == pytest.approx(0.257)
     kobuki = CostmapSettings.for_robot(load_robot("turtlebot2"))
     assert kobuki.inscribed_radius_m == pytest.approx(0.177)
     for s in (burger, waffle, kobuki):
@@ -605,7 +606,11 @@ def test_make_costmap_and_plan_end_to_end():
     occ[:30, 30] = 100                       # a wall with a gap at the top
     settings = CostmapSettings(inscribed_radius_m=0.1, inflation_radius_m=0.3)
     cost = make_costmap(occ, RES, settings)
-    np.testing.assert_array_equal(cost, _native.inflate(occ, RES, 0.1, 0.3, 5.0))
+    # both radii half a cell further out: obstacles fill their cells
+    np.testing.assert_array_equal(cost, _native.inflate(occ, RES, 0.125, 0.325, 5.0))
+    # (31, 31) is sqrt(5) cells = 0.112 m from the wall's end (29, 30): beyond the 0.1 m
+    # radius from its centre, but within 0.1 m of its edge
+    assert cost[31, 31] == 253 and _native.inflate(occ, RES, 0.1, 0.3, 5.0)[31, 31] < 253
     start, goal = (5, 10), (5, 50)
     raw = plan(cost, start, goal, PlannerSettings(shortcut=False))
     short = plan(cost, start, goal, PlannerSettings())

@@ -49,6 +49,7 @@ class ControlOutput:
     angular_radps: float
     status: str                            # one of STATUSES
     lookahead: Optional[tuple] = None      # (x, y) map-frame target point, for markers
+    detail: str = ""                       # why, for blocked / no_path (one clause, for logs)
 
 
 @runtime_checkable

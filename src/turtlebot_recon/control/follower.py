@@ -20,8 +20,10 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               ``collision_horizon_s`` in half-cell steps; the first sample on a collision cell
               (inscribed or lethal, or unknown if ``unknown_is_collision``) caps v so that the
               horizon ends before it; if less than ``collision_stop_distance_m`` of the arc is
-              free: zero command, "blocked" (the navigator replans). The robot standing on lethal
-              cost is "blocked" too.
+              free, steps 3-7 are tried again with L_d halved, down to one cell (a nearer
+              carrot keeps to the collision-free plan where the arc to a far one cuts a corner
+              into the inflation); if even that is blocked: zero command, "blocked" (the
+              navigator replans). The robot standing on lethal cost is "blocked" too.
 
 Only the footprint's centre is checked, against the inflated costmap (inscribed radius = the
 largest circle inside the footprint); turning in place does not move the centre, so it is not
@@ -42,6 +44,7 @@ from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, Cont
 # the costmap values of planning.costmap, repeated: control must not import planning, whose
 # navigator imports control
 INSCRIBED, LETHAL, NO_INFORMATION = 253, 254, 255
+_COST_NAMES = {INSCRIBED: "inscribed", LETHAL: "lethal", NO_INFORMATION: "unknown"}
 _TINY = 1e-9
 
 
@@ -209,8 +212,10 @@ class PurePursuit:
         except (TypeError, ValueError):
             x = y = yaw = math.nan
         grid = _Grid.make(inp.costmap, inp.resolution, inp.origin)
-        if grid is None or not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
-            return ControlOutput(0.0, 0.0, BLOCKED)      # cannot judge safety: do not move
+        if grid is None:                                 # cannot judge safety: do not move
+            return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable costmap")
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+            return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
         xy = np.array([x, y])
 
         # 1. progress: the closest point, forward from the last one only
@@ -225,7 +230,7 @@ class PurePursuit:
 
         start_cost = int(grid.lookup(np.array([x]), np.array([y]))[0])
         if start_cost == LETHAL:
-            return ControlOutput(0.0, 0.0, BLOCKED, goal_tuple)
+            return ControlOutput(0.0, 0.0, BLOCKED, goal_tuple, "the robot's cell is an obstacle")
 
         # 2. goal: latched xy tolerance, then the heading
         tol = cfg.xy_goal_tolerance_m
@@ -243,30 +248,53 @@ class PurePursuit:
         v_meas = float(inp.velocity[0]) if _finite_first(inp.velocity) else 0.0
         lookahead_m = min(max(cfg.lookahead_time_s * abs(v_meas), cfg.lookahead_min_m),
                           cfg.lookahead_max_m)
+        d_goal_m = max(remaining_m, d_goal_xy)
+
+        # 3-7 with L_d, then (the arc blocked) with L_d halved down to one cell: a nearer carrot
+        # hugs the collision-free plan where the arc to a far one cuts a corner into inflation.
+        blocked = None
+        while True:
+            out, why = self._toward(track, grid, x, y, yaw, lookahead_m, d_goal_m, start_cost)
+            if out is not None:
+                return out
+            blocked = blocked or why
+            if lookahead_m <= grid.res:
+                return ControlOutput(0.0, 0.0, BLOCKED, blocked[0], blocked[1])
+            lookahead_m = max(0.5 * lookahead_m, grid.res)
+
+    def _toward(self, track: "_Track", grid: "_Grid", x: float, y: float, yaw: float,
+                lookahead_m: float, d_goal_m: float, start_cost: int) -> tuple:
+        """Steps 3-7 for one look-ahead distance: (the command, None), or (None, (carrot,
+        why blocked)) when less than ``collision_stop_distance_m`` of its arc is free."""
+        cfg = self.settings
         carrot = track.point_at(self._progress_m + lookahead_m)
         carrot_tuple = (float(carrot[0]), float(carrot[1]))
-        dx, dy = carrot - xy
+        dx, dy = carrot[0] - x, carrot[1] - y
         dist_m = math.hypot(dx, dy)
         alpha = wrap_angle(math.atan2(dy, dx) - yaw) if dist_m > _TINY else 0.0
 
         # 4. far off heading: turn in place first
         if abs(alpha) > cfg.rotate_threshold_rad:
-            return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, carrot_tuple)
+            return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, carrot_tuple), None
 
         # 5. curvature of the arc through the carrot, 6. speed limits
         kappa = 2.0 * math.sin(alpha) / dist_m if dist_m > _TINY else 0.0
-        v = self._speed(kappa, max(remaining_m, d_goal_xy), start_cost)
+        v = self._speed(kappa, d_goal_m, start_cost)
 
         # 7. look-ahead collision check along the arc
         horizon_m = max(v * cfg.collision_horizon_s, cfg.collision_stop_distance_m)
-        free_m = self._free_arc(grid, x, y, yaw, kappa, horizon_m, start_cost, track.goal)
+        free_m, hit_xy, hit_cost = self._free_arc(grid, x, y, yaw, kappa, horizon_m, start_cost, track.goal)
         if free_m is not None:
             if free_m < cfg.collision_stop_distance_m:
-                return ControlOutput(0.0, 0.0, BLOCKED, carrot_tuple)
+                return None, (carrot_tuple, (
+                    f"{_COST_NAMES.get(hit_cost, 'cost %d' % hit_cost)} cell {free_m:.2f} m ahead at "
+                    f"({hit_xy[0]:.2f}, {hit_xy[1]:.2f}) on the arc to the look-ahead point "
+                    f"({carrot[0]:.2f}, {carrot[1]:.2f}); robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad) "
+                    f"on cost {start_cost}"))
             v = min(v, free_m / cfg.collision_horizon_s)     # the horizon ends before the hit
         w_max = self.robot.max_angular_radps
         w = min(max(kappa * v, -w_max), w_max)
-        return ControlOutput(float(v), float(w), FOLLOWING, carrot_tuple)
+        return ControlOutput(float(v), float(w), FOLLOWING, carrot_tuple), None
 
     # ------------------------------------------------------------------ pieces
     def _follow(self, path) -> Optional[_Track]:
@@ -305,8 +333,9 @@ class PurePursuit:
         return hit | (cost == NO_INFORMATION) if self.settings.unknown_is_collision else hit
 
     def _free_arc(self, grid: _Grid, x: float, y: float, yaw: float, kappa: float,
-                  length_m: float, start_cost: int, goal: np.ndarray) -> Optional[float]:
-        """Free arc length before the first collision sample within ``length_m``, or None.
+                  length_m: float, start_cost: int, goal: np.ndarray) -> tuple:
+        """(free arc length before the first collision sample within ``length_m``, that
+        sample's (x, y), its cost), or (None, None, None) when the arc is free.
 
         Samples every half cell along the arc of curvature ``kappa`` from the pose; samples past
         the goal are not checked (the robot stops there). A robot that already stands on a
@@ -328,7 +357,10 @@ class PurePursuit:
         if self._colliding(np.array([start_cost]))[0]:
             bad &= ~np.cumprod(cost == start_cost).astype(bool)   # the leading run: escaping
         hits = np.flatnonzero(bad)
-        return None if hits.size == 0 else float(s[hits[0]] - ds)
+        if hits.size == 0:
+            return None, None, None
+        k = hits[0]
+        return float(s[k] - ds), (float(xs[k]), float(ys[k])), int(cost[k])
 
 
 def _finite_first(values) -> bool:

@@ -96,9 +96,19 @@ def reachable_free_space(world: World, robot_radius_m: float, sensor_range_m: fl
     return seen & world.free
 
 
+# Where an F cell is sampled, in world cells from its centre: the centre and a point near each
+# corner. DESIGN §6 samples the centre only; that scores a perfect map below 100 % whenever the
+# robot's grid is not aligned with the world's (a start pose off the world's cell corners, a
+# yaw not a multiple of 90 deg): a centre then lies on a boundary of the robot's cells, and at
+# a wall face the cell it picks straddles the wall. "Some part of the cell's square is mapped
+# free" is the same test for an aligned grid and does not depend on the alignment.
+SAMPLE_OFFSETS = ((0.0, 0.0), (-0.45, -0.45), (-0.45, 0.45), (0.45, -0.45), (0.45, 0.45))
+
+
 class CoverageTracker:
     """Coverage(t): the fraction of F that the robot's map marks free (0..25), sampled at each F
-    cell's centre. Cells of F outside the robot's map count as not covered."""
+    cell's centre and near its corners (``SAMPLE_OFFSETS``): a cell is covered when the map
+    marks any of those points free. Cells of F outside the robot's map count as not covered."""
 
     def __init__(self, world: World, reachable_free: np.ndarray, map_to_world: tuple | None = None):
         if reachable_free.shape != world.free.shape:
@@ -107,8 +117,9 @@ class CoverageTracker:
         if rows.size == 0:
             raise ValueError("F is empty: nothing to cover")
         x0, y0, yaw = world.start if map_to_world is None else map_to_world
-        wx = world.origin[0] + (cols + 0.5) * world.resolution
-        wy = world.origin[1] + (rows + 0.5) * world.resolution
+        offsets = np.asarray(SAMPLE_OFFSETS, float)[:, :, None]          # (k, 2, 1)
+        wx = world.origin[0] + (cols + 0.5 + offsets[:, 0]) * world.resolution   # (k, |F|)
+        wy = world.origin[1] + (rows + 0.5 + offsets[:, 1]) * world.resolution
         # world -> map: the inverse of map_to_world, p_map = R(-yaw) (p_world - t).
         c, s = math.cos(yaw), math.sin(yaw)
         dx, dy = wx - x0, wy - y0
@@ -121,14 +132,14 @@ class CoverageTracker:
 
     def covered(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> np.ndarray:
         """bool (|F|,): whether the robot's map (int8 ROS values, row 0 at ``origin_xy``, map
-        frame, m) marks each F cell's centre free."""
+        frame, m) marks each F cell free at one of its sample points."""
         r = np.floor((self._my - origin_xy[1]) / resolution).astype(np.int64)
         c = np.floor((self._mx - origin_xy[0]) / resolution).astype(np.int64)
         inside = (r >= 0) & (r < occupancy.shape[0]) & (c >= 0) & (c < occupancy.shape[1])
-        out = np.zeros(self.cells, bool)
+        free = np.zeros(r.shape, bool)
         v = occupancy[r[inside], c[inside]]
-        out[inside] = (v >= 0) & (v <= FREE_THRESH)
-        return out
+        free[inside] = (v >= 0) & (v <= FREE_THRESH)
+        return free.any(axis=0)
 
     def update(self, t_s: float, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> float:
         """Sample the robot's map at sim time ``t_s`` (s); append and return the coverage."""

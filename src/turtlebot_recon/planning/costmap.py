@@ -29,8 +29,9 @@ class PlanningError(RuntimeError):
 
 @dataclass(frozen=True)
 class CostmapSettings:
-    inscribed_radius_m: float = 0.105     # robot centre closer than this to an obstacle: collision
-    inflation_radius_m: float = 0.455     # graded cost out to this distance from obstacles
+    inscribed_radius_m: float = 0.105     # robot centre closer than this to an obstacle cell's
+                                          # edge: collision (see make_costmap)
+    inflation_radius_m: float = 0.455     # graded cost out to this distance from obstacle edges
     cost_scaling_factor: float = 5.0      # 1/m, decay of the graded cost past the inscribed radius
     occupied_threshold: int = 65          # occupancy (0..100) >= this is an obstacle (map_server)
     unknown_is_obstacle: bool = False     # unknown cells: lethal instead of NO_INFORMATION (255)
@@ -47,16 +48,19 @@ class CostmapSettings:
     def for_robot(cls, robot: RobotSpec) -> "CostmapSettings":
         """Settings for ``robot``: inscribed radius from its footprint, Nav2-style inflation.
 
+        The inscribed radius is the footprint's circumscribed radius about base_footprint
+        (``radius_m``): a differential-drive robot turns in place about that point, and a box
+        body (the waffle_pi's reaches 0.257 m behind and beside the axle, its inscribed circle
+        only 0.14 m) sweeps that whole disc. Checking the centre against it makes every heading
+        safe, and it is the radius of DESIGN §6's reachable space F.
+
         Inflation reaches 0.35 m beyond the body and decays at 5 /m: at the edge of the band
         the cost is still floor(252 exp(-5 * 0.35)) = 43, so the planner feels walls across
         a typical 0.8-1 m door or corridor and keeps to its middle, while a free cell 0.1 m
         off the body costs floor(252 exp(-0.5)) = 152, not a wall the search cannot cross.
         Nav2's own defaults (0.55 m, 3-10 /m) are in the same range.
         """
-        if robot.is_round:
-            inscribed = robot.radius_m
-        else:  # a box: the largest circle inside it
-            inscribed = min(robot.footprint_length_m, robot.footprint_width_m) / 2.0
+        inscribed = robot.radius_m
         return cls(inscribed_radius_m=inscribed, inflation_radius_m=inscribed + 0.35,
                    cost_scaling_factor=5.0)
 
@@ -76,9 +80,15 @@ class PlannerSettings:
 
 
 def make_costmap(occupancy: np.ndarray, resolution: float, settings: CostmapSettings) -> np.ndarray:
-    """Inflated uint8 costmap from an int8 occupancy grid (-1 unknown, 0..100)."""
-    return _native.inflate(occupancy, resolution, settings.inscribed_radius_m,
-                           settings.inflation_radius_m, settings.cost_scaling_factor,
+    """Inflated uint8 costmap from an int8 occupancy grid (-1 unknown, 0..100).
+
+    An obstacle fills its cell: its edge lies half a cell nearer than its centre, from which
+    the distance field measures. Both radii are therefore applied half a cell further out, so
+    that a centre just outside the inscribed band keeps the body off the obstacle itself.
+    """
+    margin = 0.5 * resolution
+    return _native.inflate(occupancy, resolution, settings.inscribed_radius_m + margin,
+                           settings.inflation_radius_m + margin, settings.cost_scaling_factor,
                            occupied_threshold=settings.occupied_threshold,
                            unknown_is_obstacle=settings.unknown_is_obstacle)
 

@@ -124,7 +124,8 @@ class Navigation:
             self._blocked += 1
             if self._blocked > self.s.max_blocked_replans:
                 self._finish("failed", f"blocked {self._blocked} times in a row near "
-                                       f"({pose[0]:.2f}, {pose[1]:.2f})")
+                                       f"({pose[0]:.2f}, {pose[1]:.2f})"
+                                       + (f": {out.detail}" if out.detail else ""))
             else:
                 self._need_plan = True
             return 0.0, 0.0
