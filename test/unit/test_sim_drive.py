@@ -106,3 +106,22 @@ def test_noisy_odometry_drifts_but_ground_truth_does_not(room_world, make_sim):
     assert np.array_equal(a.pose, b.pose) and a.odom.x == b.odom.x      # same seed, same run
     err = math.hypot(a.odom.x - (a.pose[0] - 1.0), a.odom.y - (a.pose[1] - 1.5))
     assert err > 1e-3
+
+
+def test_an_added_box_stops_the_robot_is_scanned_and_refuses_to_overlap_it(room_world, make_sim):
+    sim = make_sim(room_world)                   # burger at (1.0, 1.5) facing +x
+    forward = sim.true_ranges()[0]               # beam 0 looks along +x: the wall at x = 4.1
+    assert forward == pytest.approx(4.1 - (1.0 + sim.robot.lidar.x_m), abs=0.05)
+    sim.add_box(2.0, 1.0, 2.2, 2.0)              # a door closing across the way
+    assert sim.true_ranges()[0] == pytest.approx(2.0 - (1.0 + sim.robot.lidar.x_m), abs=0.01)
+    assert not sim.world.is_free(2.1, 1.5) and sim.world.is_free(1.9, 1.5)
+    drive(sim, 0.2, 0.0, 10.0)                   # 2 m of commands toward it
+    assert 2.0 - 0.01 < sim.pose[0] + sim.robot.radius_m <= 2.0 + 1e-3
+    assert sim.collisions == 1
+    with pytest.raises(ValueError, match="overlaps the robot"):
+        sim.add_box(sim.pose[0] - 0.05, 1.4, sim.pose[0] + 0.05, 1.6)
+    with pytest.raises(ValueError, match="finite"):
+        sim.add_box(math.nan, 0.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="thinner"):
+        sim.add_box(3.0, 0.5, 3.0, 1.0)
+    assert sim.world.is_free(sim.pose[0], 1.5)   # the refused boxes changed nothing

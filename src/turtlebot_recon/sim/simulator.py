@@ -11,6 +11,7 @@ a collision (and a bumper press on robots that have bumpers).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import math
 import os
@@ -378,6 +379,41 @@ class Simulator:
                                              flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
                                              physicsClientId=self.client)
         return np.asarray(rgba, dtype=np.uint8).reshape(cam.height_px, cam.width_px, 4)[..., :3].copy()
+
+    def add_box(self, x0: float, y0: float, x1: float, y1: float) -> None:
+        """A wall box over [x0, x1] x [y0, y1] (world frame, m) from now on, as tall as the
+        walls: a door closing, an obstacle moved into the way. The lidar sees it, the body
+        collides with it and the world's grid (clearance, ``world.free``) includes it.
+        ValueError, with nothing changed, if the box is not finite, is thinner than 1 mm or
+        would overlap the robot."""
+        if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
+            raise ValueError(f"add_box: corners must be finite, got ({x0}, {y0}), ({x1}, {y1})")
+        x0, x1, y0, y1 = min(x0, x1), max(x0, x1), min(y0, y1), max(y0, y1)
+        if x1 - x0 < 1e-3 or y1 - y0 < 1e-3:
+            raise ValueError(f"add_box: ({x0}, {y0})-({x1}, {y1}) is thinner than 1 mm")
+        h = self.world.wall_height
+        half = (0.5 * (x1 - x0), 0.5 * (y1 - y0), 0.5 * h)
+        coll = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
+        vis = (pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=WALL_RGBA,
+                                    physicsClientId=self.client) if self.camera_on else -1)
+        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=vis,
+                                  basePosition=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * h),
+                                  physicsClientId=self.client)
+        pb.setCollisionFilterGroupMask(body, -1, WORLD_GROUP, WORLD_GROUP | ROBOT_GROUP,
+                                      physicsClientId=self.client)
+        contact = self._nearest_contact(self.pose)
+        if contact is not None and contact[0] < -PENETRATION_TOL_M:
+            pb.removeBody(body, physicsClientId=self.client)
+            raise ValueError(f"add_box: ({x0:.3f}, {y0:.3f})-({x1:.3f}, {y1:.3f}) overlaps the robot")
+        w, res = self.world, self.world.resolution
+        free = w.free.copy()
+        rows, cols = free.shape
+        r0, c0 = w.cell(x0, y0)
+        r1, c1 = w.cell(x1 - 1e-9, y1 - 1e-9)
+        free[max(r0, 0):max(min(r1 + 1, rows), 0), max(c0, 0):max(min(c1 + 1, cols), 0)] = False
+        self.world = dataclasses.replace(w, free=free)
+        self._clearance = self.world.clearance()
+        self.wall_boxes += 1
 
     def close(self) -> None:
         if self.client is not None and pb.isConnected(self.client):
