@@ -6,6 +6,7 @@
 #include <octomap/octomap.h>
 #include <ompl/config.h>
 
+#include "numpy_args.hpp"
 #include "turtlebot_recon/rectangles.hpp"
 
 namespace py = pybind11;
@@ -18,14 +19,12 @@ void register_exploration(py::module_& m);  // exploration.cpp
 
 namespace {
 
-py::array_t<std::int32_t> py_merge_rectangles(
-    py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> mask) {
-  if (mask.ndim() != 2) throw std::invalid_argument("merge_rectangles: mask must be 2-D");
-  const int rows = static_cast<int>(mask.shape(0)), cols = static_cast<int>(mask.shape(1));
+py::array_t<std::int32_t> py_merge_rectangles(const bindings::U8Grid& mask) {
+  const bindings::Shape s = bindings::grid_shape(mask, "merge_rectangles", "mask");
   std::vector<Rect> rects;
   {
     py::gil_scoped_release release;
-    rects = merge_rectangles(mask.data(), rows, cols);
+    rects = merge_rectangles(mask.data(), s.rows, s.cols);
   }
   py::array_t<std::int32_t> out({static_cast<py::ssize_t>(rects.size()), py::ssize_t{4}});
   auto o = out.mutable_unchecked<2>();

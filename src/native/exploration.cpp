@@ -5,66 +5,43 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <cstddef>
 #include <cstdint>
-#include <stdexcept>
-#include <string>
 
+#include "numpy_args.hpp"
 #include "turtlebot_recon/visibility.hpp"
 
 namespace py = pybind11;
 namespace te = turtlebot_recon::exploration;
+using namespace turtlebot_recon::bindings;  // numpy argument types and shape checks
 
 namespace {
-
-constexpr auto kInFlags = py::array::c_style | py::array::forcecast;
-using I8Grid = py::array_t<std::int8_t, kInFlags>;
-using I32Array = py::array_t<std::int32_t, kInFlags>;
-using U8Grid = py::array_t<std::uint8_t, kInFlags>;
-
-[[noreturn]] void fail(const std::string& what) {
-  throw std::invalid_argument("visible_unknown: " + what);  // ValueError in Python
-}
 
 py::array_t<std::int32_t> py_visible_unknown(const I8Grid& occupancy, const I32Array& cells,
                                              double radius_cells, int beams,
                                              int free_threshold) {
-  if (occupancy.ndim() != 2)
-    fail("occupancy must be a 2-D (rows, cols) array, got " + std::to_string(occupancy.ndim()) +
-         "-D");
-  // An empty query may come as shape (0,) as well as (0, 2).
-  if (!(cells.size() == 0 || (cells.ndim() == 2 && cells.shape(1) == 2)))
-    fail("cells must be an (n, 2) array of (row, col)");
-  const int rows = static_cast<int>(occupancy.shape(0));
-  const int cols = static_cast<int>(occupancy.shape(1));
-  const auto n = static_cast<size_t>(cells.size() / 2);
+  const Shape s = grid_shape(occupancy, "visible_unknown", "occupancy");
+  const std::size_t n = cell_count(cells, "visible_unknown", "cells");
   const te::VisibilityParams p{radius_cells, beams, free_threshold};
   py::array_t<std::int32_t> out(static_cast<py::ssize_t>(n));
   std::int32_t* dst = out.mutable_data();
   {
     py::gil_scoped_release release;
-    te::visible_unknown(occupancy.data(), rows, cols, cells.data(), n, p, dst);
+    te::visible_unknown(occupancy.data(), s.rows, s.cols, cells.data(), n, p, dst);
   }
   return out;
 }
 
 py::array_t<bool> py_visible_cells(const U8Grid& blocking, const I32Array& points,
                                    double radius_cells, int beams) {
-  auto bad = [](const std::string& what) {
-    throw std::invalid_argument("visible_cells: " + what);
-  };
-  if (blocking.ndim() != 2)
-    bad("blocking must be a 2-D (rows, cols) array, got " + std::to_string(blocking.ndim()) +
-        "-D");
-  if (!(points.size() == 0 || (points.ndim() == 2 && points.shape(1) == 2)))
-    bad("points must be an (n, 2) array of (row, col)");
-  const int rows = static_cast<int>(blocking.shape(0));
-  const int cols = static_cast<int>(blocking.shape(1));
-  const auto n = static_cast<size_t>(points.size() / 2);
-  py::array_t<bool> seen({static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(cols)});
+  const Shape s = grid_shape(blocking, "visible_cells", "blocking");
+  const std::size_t n = cell_count(points, "visible_cells", "points");
+  py::array_t<bool> seen({static_cast<py::ssize_t>(s.rows), static_cast<py::ssize_t>(s.cols)});
   bool* dst = seen.mutable_data();
   {
     py::gil_scoped_release release;
-    te::visible_cells(blocking.data(), rows, cols, points.data(), n, radius_cells, beams, dst);
+    te::visible_cells(blocking.data(), s.rows, s.cols, points.data(), n, radius_cells, beams,
+                      dst);
   }
   return seen;
 }

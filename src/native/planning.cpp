@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -16,39 +17,21 @@
 #include <utility>
 #include <vector>
 
+#include "numpy_args.hpp"
 #include "turtlebot_recon/costmap.hpp"
 #include "turtlebot_recon/distance_field.hpp"
 #include "turtlebot_recon/grid_search.hpp"
 
 namespace py = pybind11;
 namespace tp = turtlebot_recon::planning;
+using namespace turtlebot_recon::bindings;  // numpy argument types and shape checks
 
 namespace {
 
-constexpr auto kInFlags = py::array::c_style | py::array::forcecast;
-using U8Grid = py::array_t<std::uint8_t, kInFlags>;
-using I8Grid = py::array_t<std::int8_t, kInFlags>;
-using I32Array = py::array_t<std::int32_t, kInFlags>;
 using CellArg = std::pair<int, int>;
-
-struct Shape {
-  int rows, cols;
-};
 
 std::string shape_str(Shape s) {
   return "(" + std::to_string(s.rows) + ", " + std::to_string(s.cols) + ")";
-}
-
-[[noreturn]] void fail(const char* fn, const std::string& what) {
-  throw std::invalid_argument(std::string(fn) + ": " + what);  // ValueError in Python
-}
-
-template <class T>
-Shape grid_shape(const py::array_t<T, kInFlags>& a, const char* fn, const char* name) {
-  if (a.ndim() != 2)
-    fail(fn, std::string(name) + " must be a 2-D (rows, cols) array, got " +
-                 std::to_string(a.ndim()) + "-D");
-  return {static_cast<int>(a.shape(0)), static_cast<int>(a.shape(1))};
 }
 
 void check_resolution(double resolution, const char* fn) {
@@ -158,9 +141,7 @@ py::object py_nearest_accessible(const U8Grid& costmap, CellArg cell, int max_co
 py::array_t<std::int32_t> py_shortcut(const I32Array& path, const U8Grid& costmap,
                                       int lethal_cost) {
   const Shape s = grid_shape(costmap, "shortcut", "costmap");
-  if (!(path.size() == 0 || (path.ndim() == 2 && path.shape(1) == 2)))
-    fail("shortcut", "path must be an (n, 2) array of (row, col)");
-  const auto n = static_cast<size_t>(path.size() / 2);
+  const std::size_t n = cell_count(path, "shortcut", "path");
   std::vector<tp::Cell> cells(n), out;
   const std::int32_t* p = path.data();
   {

@@ -1,0 +1,56 @@
+"""Helpers shared by several goal strategies: candidate filters, moving a goal, geometry."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING, List, Sequence, Tuple
+
+import numpy as np
+
+from ..frontiers import Frontier
+from ..goals import GoalBook
+
+if TYPE_CHECKING:  # pragma: no cover
+    from . import Context
+
+Point = Tuple[float, float]
+Cell = Tuple[int, int]
+
+
+def reachable_only(frontiers: Sequence[Frontier]) -> List[Frontier]:
+    """The clusters the frontier search found a reachable goal for: one behind a gap
+    narrower than the robot is never chased, whatever point a strategy would pick in it."""
+    return [f for f in frontiers if f.reachable]
+
+
+def usable(frontiers: Sequence[Frontier], ctx: Context, book: GoalBook) -> List[Frontier]:
+    """Frontiers whose own goal is reachable, affordable and not blacklisted."""
+    return [f for f in frontiers
+            if f.reachable and ctx.goal_ok(f.goal_cell) and not book.is_blacklisted(f.goal)]
+
+
+def with_goal(frontier: Frontier, cell: Cell, ctx: Context) -> Frontier:
+    """``frontier`` with its goal moved to the reachable ``cell``."""
+    cell = (int(cell[0]), int(cell[1]))
+    return dataclasses.replace(frontier, goal=ctx.cell_to_xy(cell), goal_cell=cell,
+                               path_cost_m=float(ctx.cost_to_come[cell]), reachable=True)
+
+
+def distance(a: Sequence[float], b: Sequence[float]) -> float:
+    """Euclidean distance (m) between two points of the map frame."""
+    return math.hypot(b[0] - a[0], b[1] - a[1])
+
+
+def heading_error(ctx: Context, xy: Sequence[float]) -> float:
+    """|angle| (rad, 0..pi) between the robot's heading and the direction to ``xy``."""
+    dx, dy = xy[0] - ctx.robot_xy[0], xy[1] - ctx.robot_xy[1]
+    if math.hypot(dx, dy) < 1e-9:
+        return 0.0
+    err = math.atan2(dy, dx) - ctx.robot_yaw
+    return abs(math.atan2(math.sin(err), math.cos(err)))
+
+
+def window_around(grid: np.ndarray, cell: Cell, k: int) -> np.ndarray:
+    """The (2k + 1)^2 square of ``grid`` centred on ``cell``, cut at the grid's edges (a view)."""
+    r, c = cell
+    return grid[max(r - k, 0):r + k + 1, max(c - k, 0):c + k + 1]
