@@ -38,13 +38,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import TOP, write  # noqa: E402
 
 from turtlebot_recon.evaluation import benchmark as bm  # noqa: E402
-from turtlebot_recon.sim import load_world  # noqa: E402
+from turtlebot_recon.sim import WorldError, load_world  # noqa: E402
 
 SHARED = TOP.parent / "shared" / "worlds"
 SHIPPED = ("house", "maze", "office", "arena")
 REAL = ("depot", "tb3_sandbox")
 OUT = TOP / "output" / "bench" / "explore"
 DIED = re.compile(r"\[([\w/-]+)\] process has died \[pid \d+, exit code (-?\d+)")
+SHUTDOWN_REASON = "shut down before the end"   # the evaluator's finished_reason when stopped from outside
 STOP_WAIT_S = 60.0          # s (wall) after SIGINT for the evaluator's partial report, then SIGKILL
 
 
@@ -53,8 +54,8 @@ def world_arg(name: str) -> str:
     if name in SHIPPED:
         return name
     if name in REAL:
-        return str((SHARED / f"{name}.yaml").resolve())
-    return str(Path(name).resolve())
+        return str(SHARED / f"{name}.yaml")
+    return str(Path(name).absolute())
 
 
 def csv_list(text: str) -> list:
@@ -132,14 +133,15 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
                 rc = proc.wait()
     wall_s = time.monotonic() - t0
     died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
-    has_report = (run_dir / "report.json").exists()
-    if timed_out:
+    report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
+    has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
+    if timed_out and not has_report:
         status, reason = "timeout", f"stopped after the wall-clock limit of {limit_s:.0f} s"
     elif died:
         status, reason = "failed", "node died: " + ", ".join(died)
     elif not has_report:
         status, reason = "failed", f"no report.json (roslaunch exit code {rc})"
-    else:
+    else:         # the evaluator ended the run (if only just before the limit: a slow shutdown)
         status, reason = "ok", ""
     meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
             "wall_limit_s": round(limit_s, 1), "budget_s": budget, "command": " ".join(cmd)}
@@ -193,6 +195,7 @@ def main(argv=None):
     p.add_argument("--min-rtf", type=float, default=2.0, help="wall limit = startup + budget / this")
     p.add_argument("--startup-s", type=float, default=120.0, help="wall seconds allowed for start-up and saving")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
+    p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
     args = p.parse_args(argv)
     strategies = csv_list(args.strategies)
     unknown = sorted(set(strategies) - set(bm.STRATEGIES))
@@ -202,8 +205,17 @@ def main(argv=None):
         p.error("--seeds, --jobs and --min-rtf must be positive")
     args.world_args = {Path(w).stem: world_arg(w) for w in csv_list(args.worlds)}   # name -> launch argument
     worlds = list(args.world_args)
-    budgets = budgets_for(args.world_args, args)
+    try:
+        budgets = budgets_for(args.world_args, args)
+    except (WorldError, ValueError) as exc:
+        p.error(str(exc))
     plan = [(s, w, n) for w in worlds for s in strategies for n in range(args.seeds)]
+    if args.dry_run:
+        for w in worlds:
+            print(f"{w}: {args.world_args[w]}, budget {budgets[w]:g} s sim, wall limit "
+                  f"{args.startup_s + budgets[w] / args.min_rtf:.0f} s per run, {len(strategies) * args.seeds} runs")
+        print(f"{len(plan)} runs, {args.jobs} at a time, robot {args.robot}")
+        return
     runs = sweep(plan, budgets, args) if plan else []
 
     groups = bm.aggregate(runs)
