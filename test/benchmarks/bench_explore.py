@@ -46,6 +46,8 @@ REAL = ("depot", "tb3_sandbox")
 OUT = TOP / "output" / "bench" / "explore"
 DIED = re.compile(r"\[([\w/-]+)\] process has died \[pid \d+, exit code (-?\d+)")
 SHUTDOWN_REASON = "shut down before the end"   # the evaluator's finished_reason when stopped from outside
+LIVE: dict = {}             # pid -> Popen of the launches running now (stopped on Ctrl-C)
+STOPPING = threading.Event()
 STOP_WAIT_S = 60.0          # s (wall) after SIGINT for the evaluator's partial report, then SIGKILL
 
 
@@ -120,22 +122,25 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     limit_s = args.startup_s + budget / args.min_rtf
     t0 = time.monotonic()
     with open(run_dir / "launch.log", "wb") as log:
-        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+        with lock:
+            if STOPPING.is_set():
+                raise RuntimeError("interrupted before it started")
+            proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+            LIVE[proc.pid] = proc
         try:
             rc, timed_out = proc.wait(timeout=limit_s), False
         except subprocess.TimeoutExpired:
             timed_out = True
-            os.killpg(proc.pid, signal.SIGINT)
-            try:
-                rc = proc.wait(timeout=STOP_WAIT_S)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                rc = proc.wait()
+            rc = stop(proc)
+        finally:
+            LIVE.pop(proc.pid, None)
     wall_s = time.monotonic() - t0
     died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
     has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
-    if timed_out and not has_report:
+    if STOPPING.is_set() and not has_report:
+        status, reason = "failed", "interrupted (Ctrl-C)"
+    elif timed_out and not has_report:
         status, reason = "timeout", f"stopped after the wall-clock limit of {limit_s:.0f} s"
     elif died:
         status, reason = "failed", "node died: " + ", ".join(died)
@@ -149,20 +154,43 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     return meta
 
 
+def stop(proc: subprocess.Popen) -> int:
+    """SIGINT the launch's process group (the evaluator writes a partial report), SIGKILL after
+    STOP_WAIT_S; return the exit code."""
+    try:
+        os.killpg(proc.pid, signal.SIGINT)
+        return proc.wait(timeout=STOP_WAIT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.wait()
+    except ProcessLookupError:              # already gone
+        return proc.wait()
+
+
+def reusable(strategy: str, world: str, seed: int, budget: float, args) -> bool:
+    """--resume: a run that finished ok with the same robot and budget."""
+    run_dir = OUT / world / strategy / f"seed{seed}"
+    if not (run_dir / "report.json").exists() or not (run_dir / "run.json").exists():
+        return False
+    run = load_run(strategy, world, seed, run_dir)
+    meta = json.loads((run_dir / "run.json").read_text())
+    return run.ok and run.report.get("robot") == args.robot and meta.get("budget_s") == budget
+
+
 def sweep(plan: list, budgets: dict, args) -> list:
     """Run (or, with --resume, reuse) every (strategy, world, seed) of ``plan``; return Runs."""
     todo, lock, done = [], threading.Lock(), 0
     for s, w, n in plan:
-        run_dir = OUT / w / s / f"seed{n}"
-        if args.resume and (run_dir / "report.json").exists() and load_run(s, w, n, run_dir).ok:
+        if args.resume and reusable(s, w, n, budgets[w], args):
             print(f"[bench-explore] reuse {w}/{s}/seed{n}")
         else:
             todo.append((s, w, n))
     print(f"[bench-explore] {len(todo)} runs to do ({len(plan) - len(todo)} reused), {args.jobs} at a time, "
           f"robot {args.robot}; budgets: " + ", ".join(f"{w} {b:g} s" for w, b in budgets.items()), flush=True)
     t0 = time.monotonic()
-    with cf.ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        futures = {pool.submit(execute, s, w, n, budgets[w], args, lock): (s, w, n) for s, w, n in todo}
+    pool = cf.ThreadPoolExecutor(max_workers=args.jobs)
+    futures = {pool.submit(execute, s, w, n, budgets[w], args, lock): (s, w, n) for s, w, n in todo}
+    try:
         for fut in cf.as_completed(futures):
             s, w, n = futures[fut]
             done += 1
@@ -179,6 +207,14 @@ def sweep(plan: list, budgets: dict, args) -> list:
                   f"{' (' + meta['reason'] + ')' if meta['reason'] else ''}, coverage "
                   f"{'-' if cov is None else f'{100 * cov:.1f} %'}, {meta['wall_s']:.0f} s wall "
                   f"(sweep {time.monotonic() - t0:.0f} s)", flush=True)
+    except KeyboardInterrupt:              # the launches run in their own sessions: stop them here
+        STOPPING.set()
+        print(f"[bench-explore] interrupted: stopping {len(LIVE)} launches (finished runs stay for --resume)")
+        for proc in list(LIVE.values()):
+            stop(proc)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
     return [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
 
 
