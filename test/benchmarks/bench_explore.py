@@ -1,0 +1,276 @@
+#!/usr/bin/env python3
+"""Exploration benchmark (`make bench-explore`, issue 5 item 8): strategies x worlds x seeds.
+
+Each run is `roslaunch turtlebot_recon explore_sim.launch` headless (rtf:=0, lidar only: the
+camera is off, as the launch file's default) with its own ROS master port (`roslaunch -p`,
+ROS_MASTER_URI), ROS_HOME (logs) and output directory
+output/bench/explore/<world>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
+launch.log, run.json). Up to --jobs runs at a time. A run is "ok" when the evaluator ended it
+and wrote report.json; one that exceeds its wall-clock limit is stopped (SIGINT, then SIGKILL)
+and recorded as "timeout"; one where a node died or no report appeared, as "failed". Neither is
+hidden: the aggregation (turtlebot_recon.evaluation.benchmark) counts them as coverage 0 that
+never reached a milestone. --resume reuses runs whose run.json says ok.
+
+Budgets (sim seconds) follow benchmark.budget_s of each world's free area unless --budget (all
+worlds) or --budgets world=s,... is given. The wall-clock limit of a run is
+--startup-s + budget / --min-rtf.
+
+Output: the table, output/bench/explore.json (benchmark.figures + machine + commit), and under
+output/bench/explore/: coverage_<world>.png and time_to_99.png.
+"""
+import argparse
+import concurrent.futures as cf
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import TOP, write  # noqa: E402
+
+from turtlebot_recon.evaluation import benchmark as bm  # noqa: E402
+from turtlebot_recon.sim import WorldError, load_world  # noqa: E402
+
+SHARED = TOP.parent / "shared" / "worlds"
+SHIPPED = ("house", "maze", "office", "arena")
+REAL = ("depot", "tb3_sandbox")
+OUT = TOP / "output" / "bench" / "explore"
+DIED = re.compile(r"\[([\w/-]+)\] process has died \[pid \d+, exit code (-?\d+)")
+SHUTDOWN_REASON = "shut down before the end"   # the evaluator's finished_reason when stopped from outside
+LIVE: dict = {}             # pid -> Popen of the launches running now (stopped on Ctrl-C)
+STOPPING = threading.Event()
+STOP_WAIT_S = 60.0          # s (wall) after SIGINT for the evaluator's partial report, then SIGKILL
+
+
+def world_arg(name: str) -> str:
+    """The launch file's world argument: a shipped name, a real map in ../shared/worlds, or a path."""
+    if name in SHIPPED:
+        return name
+    if name in REAL:
+        return str(SHARED / f"{name}.yaml")
+    return str(Path(name).absolute())
+
+
+def csv_list(text: str) -> list:
+    return [x.strip() for x in text.split(",") if x.strip()]
+
+
+def budgets_for(worlds: dict, args) -> dict:
+    """{world: sim seconds} for {name: launch argument}: --budgets entries, else --budget,
+    else the free-area rule."""
+    given = {}
+    for item in csv_list(args.budgets):
+        name, _, value = item.partition("=")
+        given[name.strip()] = float(value)
+    out = {}
+    for w, arg in worlds.items():
+        if w in given:
+            out[w] = given[w]
+        elif args.budget:
+            out[w] = float(args.budget)
+        else:
+            world = load_world(arg)
+            out[w] = bm.budget_s(float(world.free.sum()) * world.resolution ** 2)
+    return out
+
+
+def free_port() -> int:
+    """A TCP port free right now (the OS picks it), for one run's ROS master."""
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+def load_series(run_dir: Path) -> tuple:
+    path = run_dir / "coverage.csv"
+    if not path.exists():
+        return np.zeros(0), np.zeros(0)
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return (data[:, 0], data[:, 1]) if data.size else (np.zeros(0), np.zeros(0))
+
+
+def load_run(strategy: str, world: str, seed: int, run_dir: Path) -> bm.Run:
+    """A finished run from its directory (run.json written by this script, report.json, coverage.csv)."""
+    meta = json.loads((run_dir / "run.json").read_text()) if (run_dir / "run.json").exists() else {}
+    report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
+    status = meta.get("status", "ok" if report else "failed")
+    return bm.Run(strategy, world, seed, status, report, load_series(run_dir), meta.get("reason", ""))
+
+
+def execute(strategy: str, world: str, seed: int, budget: float, args, lock: threading.Lock) -> dict:
+    """One launch, waited for (or stopped at its wall-clock limit); returns run.json's content."""
+    run_dir = OUT / world / strategy / f"seed{seed}"
+    shutil.rmtree(run_dir, ignore_errors=True)
+    ros_home = run_dir / "ros_home"
+    ros_home.mkdir(parents=True)
+    with lock:                                    # one port pick at a time within this process
+        port = free_port()
+    env = {**os.environ, "ROS_MASTER_URI": f"http://localhost:{port}", "ROS_HOME": str(ros_home),
+           "ROS_LOG_DIR": str(ros_home / "log")}
+    cmd = ["roslaunch", "-p", str(port), "turtlebot_recon", "explore_sim.launch", f"world:={args.world_args[world]}",
+           f"robot:={args.robot}", f"strategy:={strategy}", f"seed:={seed}", f"budget:={budget:g}", "rtf:=0",
+           f"output:={run_dir}"]
+    limit_s = args.startup_s + budget / args.min_rtf
+    t0 = time.monotonic()
+    with open(run_dir / "launch.log", "wb") as log:
+        with lock:
+            if STOPPING.is_set():
+                raise RuntimeError("interrupted before it started")
+            proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+            LIVE[proc.pid] = proc
+        try:
+            rc, timed_out = proc.wait(timeout=limit_s), False
+        except subprocess.TimeoutExpired:
+            timed_out = True
+            rc = stop(proc)
+        finally:
+            LIVE.pop(proc.pid, None)
+    wall_s = time.monotonic() - t0
+    died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
+    report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
+    has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
+    if STOPPING.is_set() and not has_report:
+        status, reason = "failed", "interrupted (Ctrl-C)"
+    elif timed_out and not has_report:
+        status, reason = "timeout", f"stopped after the wall-clock limit of {limit_s:.0f} s"
+    elif died:
+        status, reason = "failed", "node died: " + ", ".join(died)
+    elif not has_report:
+        status, reason = "failed", f"no report.json (roslaunch exit code {rc})"
+    else:         # the evaluator ended the run (if only just before the limit: a slow shutdown)
+        status, reason = "ok", ""
+    meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
+            "wall_limit_s": round(limit_s, 1), "budget_s": budget, "command": " ".join(cmd)}
+    (run_dir / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
+    return meta
+
+
+def stop(proc: subprocess.Popen) -> int:
+    """SIGINT the launch's process group (the evaluator writes a partial report), SIGKILL after
+    STOP_WAIT_S; return the exit code."""
+    try:
+        os.killpg(proc.pid, signal.SIGINT)
+        return proc.wait(timeout=STOP_WAIT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        return proc.wait()
+    except ProcessLookupError:              # already gone
+        return proc.wait()
+
+
+def reusable(strategy: str, world: str, seed: int, budget: float, args) -> bool:
+    """--resume: a run that finished ok with the same robot and budget."""
+    run_dir = OUT / world / strategy / f"seed{seed}"
+    if not (run_dir / "report.json").exists() or not (run_dir / "run.json").exists():
+        return False
+    run = load_run(strategy, world, seed, run_dir)
+    meta = json.loads((run_dir / "run.json").read_text())
+    return run.ok and run.report.get("robot") == args.robot and meta.get("budget_s") == budget
+
+
+def sweep(plan: list, budgets: dict, args) -> list:
+    """Run (or, with --resume, reuse) every (strategy, world, seed) of ``plan``; return Runs."""
+    todo, lock, done = [], threading.Lock(), 0
+    for s, w, n in plan:
+        if args.resume and reusable(s, w, n, budgets[w], args):
+            print(f"[bench-explore] reuse {w}/{s}/seed{n}")
+        else:
+            todo.append((s, w, n))
+    print(f"[bench-explore] {len(todo)} runs to do ({len(plan) - len(todo)} reused), {args.jobs} at a time, "
+          f"robot {args.robot}; budgets: " + ", ".join(f"{w} {b:g} s" for w, b in budgets.items()), flush=True)
+    t0 = time.monotonic()
+    pool = cf.ThreadPoolExecutor(max_workers=args.jobs)
+    futures = {pool.submit(execute, s, w, n, budgets[w], args, lock): (s, w, n) for s, w, n in todo}
+    try:
+        for fut in cf.as_completed(futures):
+            s, w, n = futures[fut]
+            done += 1
+            try:
+                meta = fut.result()
+            except Exception as exc:           # a bug here must not lose the rest of the sweep
+                meta = {"status": "failed", "reason": f"runner error: {exc!r}", "wall_s": float("nan")}
+                run_dir = OUT / w / s / f"seed{n}"
+                run_dir.mkdir(parents=True, exist_ok=True)
+                (run_dir / "run.json").write_text(json.dumps(meta, default=str) + "\n")
+            run = load_run(s, w, n, OUT / w / s / f"seed{n}")
+            cov = run.report.get("coverage_final")
+            print(f"[bench-explore] {done}/{len(todo)} {w}/{s}/seed{n}: {meta['status']}"
+                  f"{' (' + meta['reason'] + ')' if meta['reason'] else ''}, coverage "
+                  f"{'-' if cov is None else f'{100 * cov:.1f} %'}, {meta['wall_s']:.0f} s wall "
+                  f"(sweep {time.monotonic() - t0:.0f} s)", flush=True)
+    except KeyboardInterrupt:              # the launches run in their own sessions: stop them here
+        STOPPING.set()
+        print(f"[bench-explore] interrupted: stopping {len(LIVE)} launches (finished runs stay for --resume)")
+        for proc in list(LIVE.values()):
+            stop(proc)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--strategies", default=",".join(bm.STRATEGIES), help="comma-separated (default: all six)")
+    p.add_argument("--worlds", default=",".join(SHIPPED + REAL),
+                   help="comma-separated names in worlds/, depot/tb3_sandbox (../shared/worlds) or YAML paths")
+    p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 (default 3)")
+    p.add_argument("--robot", default="turtlebot3_waffle_pi")
+    p.add_argument("--jobs", type=int, default=1, help="launches at a time (each ~1 core at rtf:=0)")
+    p.add_argument("--budget", type=float, default=0.0, help="sim seconds for every world (0: the area rule)")
+    p.add_argument("--budgets", default="", help="per world, e.g. house=600,office=3000 (wins over --budget)")
+    p.add_argument("--min-rtf", type=float, default=2.0, help="wall limit = startup + budget / this")
+    p.add_argument("--startup-s", type=float, default=120.0, help="wall seconds allowed for start-up and saving")
+    p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
+    p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
+    args = p.parse_args(argv)
+    strategies = csv_list(args.strategies)
+    unknown = sorted(set(strategies) - set(bm.STRATEGIES))
+    if unknown or not strategies:
+        p.error(f"unknown strategies {unknown}; choose from {', '.join(bm.STRATEGIES)}")
+    if args.seeds < 1 or args.jobs < 1 or args.min_rtf <= 0:
+        p.error("--seeds, --jobs and --min-rtf must be positive")
+    args.world_args = {Path(w).stem: world_arg(w) for w in csv_list(args.worlds)}   # name -> launch argument
+    worlds = list(args.world_args)
+    try:
+        budgets = budgets_for(args.world_args, args)
+    except (WorldError, ValueError) as exc:
+        p.error(str(exc))
+    plan = [(s, w, n) for w in worlds for s in strategies for n in range(args.seeds)]
+    if args.dry_run:
+        for w in worlds:
+            print(f"{w}: {args.world_args[w]}, budget {budgets[w]:g} s sim, wall limit "
+                  f"{args.startup_s + budgets[w] / args.min_rtf:.0f} s per run, {len(strategies) * args.seeds} runs")
+        print(f"{len(plan)} runs, {args.jobs} at a time, robot {args.robot}")
+        return
+    runs = sweep(plan, budgets, args) if plan else []
+
+    groups = bm.aggregate(runs)
+    print("\nexploration benchmark: medians over seeds; 'never' = not reached by most seeds; "
+          "failed runs count as coverage 0\n")
+    print(bm.table(groups))
+    for r in runs:
+        if not r.ok:
+            print(f"  FAILED {r.world}/{r.strategy}/seed{r.seed}: {r.status} {r.reason}")
+    OUT.mkdir(parents=True, exist_ok=True)
+    for w in worlds:
+        bm.plot_coverage_by_world(OUT / f"coverage_{w}.png", w, runs, strategies)
+    bm.plot_time_bars(OUT / "time_to_99.png", groups, worlds, strategies)
+    figs = bm.figures(groups, runs)
+    figs.update({"seeds": args.seeds, "jobs": args.jobs})
+    figs.update({f"budget_s_{w}": b for w, b in budgets.items()})
+    write("explore", figs)
+    print(f"plots: {OUT}/coverage_<world>.png, {OUT}/time_to_99.png")
+
+
+if __name__ == "__main__":
+    main()

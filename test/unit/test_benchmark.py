@@ -1,0 +1,165 @@
+"""Exploration benchmark aggregation (turtlebot_recon.evaluation.benchmark): medians over seeds,
+never-reached and failed runs, ratios against the best baseline, explore.json keys, the table."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.evaluation import benchmark as bm
+
+INF, NAN = math.inf, math.nan
+
+
+def run(strategy="recon", world="house", seed=0, status="ok", t90=100.0, t95=200.0, t99=None, cov=0.96,
+        dist=50.0, coll=0, wall=60.0, rtf=10.0, series=None):
+    report = {"coverage_final": cov, "time_to_90_s": t90, "time_to_95_s": t95, "time_to_99_s": t99,
+              "distance_m": dist, "collisions": coll, "wall_time_s": wall, "rtf": rtf}
+    t = np.array([0.0, 100.0, 200.0]) if series is None else series[0]
+    c = np.array([0.0, 0.9, cov]) if series is None else series[1]
+    return bm.Run(strategy, world, seed, status, report, (t, c))
+
+
+def test_budget_rule():
+    # house: 300 + 8 * 111.27 = 1190.2 -> 1200; office: 300 + 8 * 592.1 = 5036.8 -> 5040;
+    # tb3_sandbox: 300 + 8 * 19.76 = 458 < 600 -> 600
+    assert bm.budget_s(111.27) == 1200.0
+    assert bm.budget_s(592.1) == 5040.0
+    assert bm.budget_s(19.76) == 600.0
+    assert bm.budget_s(100.0, base_s=0.0, per_m2_s=1.0, min_s=0.0) == 120.0   # 100 -> next whole minute
+    with pytest.raises(ValueError):
+        bm.budget_s(-1.0)
+
+
+def test_median_with_never():
+    assert bm.median([300.0, 100.0, 200.0]) == 200.0
+    assert bm.median([100.0, INF, 200.0]) == 200.0          # one never of three: still reached
+    assert bm.median([100.0, INF, INF]) == INF              # most never: never
+    assert bm.median([100.0, 300.0]) == 200.0
+    assert bm.median([100.0, INF]) == INF                   # even count: both middles must be finite
+    assert math.isnan(bm.median([]))
+
+
+@pytest.mark.parametrize("a, b, expected", [
+    (70.0, 100.0, 0.7), (INF, 100.0, INF), (70.0, INF, 0.0), (INF, INF, NAN),
+    (5.0, 0.0, INF), (0.0, 0.0, NAN), (NAN, 1.0, NAN), (1.0, NAN, NAN)])
+def test_ratio_rules(a, b, expected):
+    got = bm.ratio(a, b)
+    assert (math.isnan(got) and math.isnan(expected)) or got == pytest.approx(expected)
+
+
+def test_failed_runs_count_as_zero_coverage_and_never():
+    ok = run(seed=0, t90=100.0, cov=0.96)
+    crashed = run(seed=1, status="failed", t90=50.0, cov=0.99)       # its partial report is not trusted
+    timeout = run(seed=2, status="timeout", t90=60.0, cov=0.98, coll=7)
+    assert crashed.time_to(90) == INF and crashed.coverage() == 0.0
+    g = bm.summarise([ok, crashed, timeout])
+    assert (g.runs, g.failed) == (3, 2)
+    assert g.time_s[90] == INF                 # [100, inf, inf] -> inf
+    assert g.coverage_median == 0.0 and g.coverage_min == 0.0
+    assert g.collisions_sum == 0               # collisions, distance, wall, rtf: ok runs only
+    assert g.distance_m == 50.0 and g.rtf == 10.0
+
+
+def test_summarise_medians_and_collisions():
+    runs = [run(seed=0, t95=200.0, t99=400.0, cov=0.99, dist=40.0, coll=0, rtf=8.0),
+            run(seed=1, t95=300.0, t99=None, cov=0.97, dist=60.0, coll=2, rtf=12.0),
+            run(seed=2, t95=250.0, t99=500.0, cov=0.995, dist=50.0, coll=1, rtf=10.0)]
+    g = bm.summarise(runs)
+    assert g.time_s == {90: 100.0, 95: 250.0, 99: 500.0}     # t99: [400, inf, 500] -> 500
+    assert g.coverage_median == 0.99 and g.coverage_min == 0.97
+    assert (g.distance_m, g.collisions_sum, g.collisions_max, g.rtf) == (50.0, 3, 2, 10.0)
+
+
+def sweep():
+    """Two worlds, recon + two baselines, one seed each.
+    house: recon t99 = 300, nearest 400, density 500 -> ratio 300 / 400 = 0.75;
+           distance recon 60, nearest 40, density 50 -> 60 / 40 = 1.5.
+    maze:  recon never reaches 99 % (t95 = 100), nearest t99 = 200, density never (t95 = 80)
+           -> time99 ratio inf (null), time95 100 / 80 = 1.25; distance 20 / 25 = 0.8."""
+    return [run("recon", "house", t99=300.0, dist=60.0, coll=1, rtf=9.0, cov=0.995),
+            run("nearest", "house", t99=400.0, dist=40.0),
+            run("density", "house", t99=500.0, dist=50.0),
+            run("recon", "maze", t95=100.0, t99=None, dist=20.0, coll=2, rtf=11.0, cov=0.97),
+            run("nearest", "maze", t95=150.0, t99=200.0, dist=25.0),
+            run("density", "maze", t95=80.0, t99=None, dist=30.0)]
+
+
+def test_figures_headline_and_per_group_keys():
+    runs = sweep()
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["default_min_coverage"] == 0.97
+    assert f["default_collisions"] == 3
+    assert f["full_stack_rtf_lidar"] == 10.0                 # median of 9 and 11
+    assert f["time99_ratio_vs_best_baseline_house"] == pytest.approx(0.75)
+    assert f["time99_ratio_vs_best_baseline_maze"] is None   # inf: recon never, a baseline did
+    assert f["default_time99_ratio_vs_best_baseline"] is None
+    assert f["default_time99_never_worlds"] == 1
+    assert f["time95_ratio_vs_best_baseline_maze"] == pytest.approx(1.25)
+    assert f["default_time95_ratio_vs_best_baseline"] == pytest.approx(1.25)   # worst of 1.0 (house 200/200), 1.25
+    assert f["distance_ratio_vs_best_baseline_house"] == pytest.approx(1.5)
+    assert f["default_distance_ratio_vs_best_baseline"] == pytest.approx(1.5)
+    assert f["time99_s_recon_maze"] is None and f["time99_s_nearest_maze"] == 200.0
+    assert f["coverage_final_recon_house"] == 0.995 and f["distance_m_density_maze"] == 30.0
+    assert f["runs"] == 6 and f["failed_runs"] == 0
+    json.dumps(f, allow_nan=False)                           # no inf / nan left
+
+
+def test_worst_ratio_skips_undefined_worlds():
+    # maze: nobody reaches 99 % (inf / inf, undefined) -> skipped; house 0.75 is the worst defined
+    runs = [r for r in sweep() if r.world == "house"] + [run("recon", "maze"), run("nearest", "maze")]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["time99_ratio_vs_best_baseline_maze"] is None
+    assert f["default_time99_ratio_vs_best_baseline"] == pytest.approx(0.75)
+    assert f["default_time99_never_worlds"] == 1
+
+
+def test_only_default_reaches_gives_zero_ratio():
+    runs = [run("recon", t99=300.0), run("nearest", t99=None)]
+    assert bm.figures(bm.aggregate(runs), runs)["default_time99_ratio_vs_best_baseline"] == 0.0
+
+
+def test_failed_default_run_shows_in_headline():
+    runs = sweep() + [run("recon", "house", seed=1, status="timeout")]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["default_min_coverage"] == 0.0
+    assert f["default_failed_runs"] == 1 and f["failed_runs_recon_house"] == 1
+    assert f["time99_s_recon_house"] is None                 # [300, inf] -> inf
+
+
+def test_table_rows():
+    groups = bm.aggregate(sweep())
+    rows = bm.table_rows(groups)
+    assert [r[:2] for r in rows] == [["house", "recon"], ["house", "nearest"], ["house", "density"],
+                                     ["maze", "recon"], ["maze", "nearest"], ["maze", "density"]]
+    recon_maze = dict(zip(bm.COLUMNS, rows[3]))
+    assert recon_maze["ok/runs"] == "1/1" and recon_maze["cov med %"] == "97.0"
+    assert (recon_maze["t95 s"], recon_maze["t99 s"]) == ("100", "never")
+    assert recon_maze["coll sum/max"] == "2/2" and recon_maze["rtf"] == "11.0"
+    text = bm.table(groups).splitlines()
+    assert len(text) == 2 + 6 and text[0].split()[:2] == ["world", "strategy"]
+    assert bm.fmt_time(INF) == "never" and bm.fmt_time(NAN) == "-" and bm.fmt_time(12.4) == "12"
+
+
+def test_median_series_holds_last_value():
+    grid = np.array([0.0, 5.0, 10.0, 20.0])
+    a = (np.array([0.0, 10.0]), np.array([0.0, 1.0]))      # ends at 10 s, held at 1.0
+    b = (np.array([0.0, 20.0]), np.array([0.0, 0.5]))
+    c = (np.array([5.0, 20.0]), np.array([0.2, 0.2]))      # 0 before its first sample
+    # at 5 s: a 0.5, b 0.125, c 0.2 -> 0.2; at 20 s: 1.0, 0.5, 0.2 -> 0.5
+    assert bm.median_series([a, b, c], grid) == pytest.approx([0.0, 0.2, 0.25, 0.5])
+
+
+def test_bar_value_falls_back_to_95():
+    g = bm.summarise([run(t95=200.0, t99=None)])
+    assert bm.bar_value(g) == (200.0, 95)
+    assert bm.bar_value(bm.summarise([run(t95=200.0, t99=300.0)])) == (300.0, 99)
+    t, pct = bm.bar_value(bm.summarise([run(t95=None, t99=None)]))
+    assert math.isnan(t) and pct is None
+
+
+def test_plots_are_written(tmp_path):
+    runs = sweep()
+    groups = bm.aggregate(runs)
+    assert bm.plot_coverage_by_world(tmp_path / "cov.png", "maze", runs, ["recon", "nearest", "density"]).exists()
+    assert bm.plot_time_bars(tmp_path / "bars.png", groups, ["house", "maze"], ["recon", "nearest", "density"]).exists()
