@@ -11,7 +11,7 @@ ENV    := source $(TOP)/tools/env.sh &&
 
 # Options for run / sim (also launch arguments).
 WORLD    ?= house
-ROBOT    ?= turtlebot3_burger
+ROBOT    ?= turtlebot3_waffle_pi
 STRATEGY ?= recon
 RTF      ?= 0
 SEED     ?= 0

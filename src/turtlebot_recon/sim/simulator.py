@@ -51,6 +51,9 @@ class SimSettings:
     rtf: float = 1.0                     # target real-time factor; 0 = as fast as the CPU allows
     physics_hz: float = 100.0
     cmd_timeout_s: float = 0.5           # stop when no /cmd_vel arrives for this long
+    cmd_sync_age_s: float = 0.25         # rtf 0 only: while the base moves, wait for a new /cmd_vel
+                                         # once the last is this old (sim s); 0 = never
+    cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
@@ -60,6 +63,8 @@ class SimSettings:
     def validate(self, src: str) -> None:
         positive(src, self, "physics_hz", "cmd_timeout_s", "ground_truth_rate_hz")
         require(self.physics_hz >= 100.0, src, "physics_hz", "must be >= 100 Hz")
+        require(self.cmd_sync_age_s >= 0.0, src, "cmd_sync_age_s", "must be >= 0 (0 = never wait)")
+        require(self.cmd_sync_wait_s >= 0.0, src, "cmd_sync_wait_s", "must be >= 0")
         require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
         require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
         require(self.camera_rate_hz >= 0.0, src, "camera_rate_hz", "must be >= 0")
