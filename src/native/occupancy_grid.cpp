@@ -328,8 +328,7 @@ int OccupancyGrid::grow_count() const {
 // =======================================================================================
 // Python bindings: turtlebot_recon._native.OccupancyGrid / ScanStats.
 
-#include <pybind11/numpy.h>
-#include <pybind11/pybind11.h>
+#include "numpy_args.hpp"
 
 namespace py = pybind11;
 using turtlebot_recon::GridView;
@@ -338,7 +337,7 @@ using turtlebot_recon::ScanStats;
 
 namespace {
 
-using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using FloatArray = py::array_t<float, turtlebot_recon::bindings::kInFlags>;
 
 std::string repr(const ScanStats& s) {
   std::ostringstream o;
@@ -378,23 +377,14 @@ ScanStats py_insert_scan(OccupancyGrid& grid, double sensor_x, double sensor_y, 
   return grid.insert_scan(scan);
 }
 
-py::array_t<std::int8_t> py_occupancy(const OccupancyGrid& grid) {
-  py::array_t<std::int8_t> out;
-  grid.read([&](const GridView& v) {
-    out = py::array_t<std::int8_t>({py::ssize_t{v.rows}, py::ssize_t{v.cols}});
-    std::int8_t* o = out.mutable_data();
-    const std::size_t n = static_cast<std::size_t>(v.rows) * v.cols;
-    for (std::size_t i = 0; i < n; ++i) o[i] = turtlebot_recon::occupancy_value(v.logodds[i]);
-  });
-  return out;
-}
-
-template <class T, class Field>
-py::array_t<T> copy_cells(const OccupancyGrid& grid, Field field) {
+// A (rows, cols) array of T written from the grid's cells, under its lock, by
+// fill(view, out, cell count).
+template <class T, class Fill>
+py::array_t<T> export_cells(const OccupancyGrid& grid, Fill fill) {
   py::array_t<T> out;
   grid.read([&](const GridView& v) {
     out = py::array_t<T>({py::ssize_t{v.rows}, py::ssize_t{v.cols}});
-    std::copy_n(field(v), static_cast<std::size_t>(v.rows) * v.cols, out.mutable_data());
+    fill(v, out.mutable_data(), static_cast<std::size_t>(v.rows) * v.cols);
   });
   return out;
 }
@@ -450,13 +440,22 @@ void register_mapping(py::module_& m) {
            py::arg("min_speed_mps"),
            "Count a visit of the cell holding (x, y) if moving at >= min_speed_mps and not in the\n"
            "cell counted last. Returns whether it counted.")
-      .def("occupancy", &py_occupancy,
+      .def("occupancy",
+           [](const OccupancyGrid& g) {
+             return export_cells<std::int8_t>(g, [](const GridView& v, std::int8_t* o, std::size_t n) {
+               std::transform(v.logodds, v.logodds + n, o, turtlebot_recon::occupancy_value);
+             });
+           },
            "int8 (rows, cols) in ROS values: -1 unknown, else round(100 p).")
       .def("visits", [](const OccupancyGrid& g) {
-             return copy_cells<std::int32_t>(g, [](const GridView& v) { return v.visits; });
+             return export_cells<std::int32_t>(g, [](const GridView& v, std::int32_t* o, std::size_t n) {
+               std::copy_n(v.visits, n, o);
+             });
            }, "int32 (rows, cols) visit counts (a copy).")
       .def("logodds", [](const OccupancyGrid& g) {
-             return copy_cells<float>(g, [](const GridView& v) { return v.logodds; });
+             return export_cells<float>(g, [](const GridView& v, float* o, std::size_t n) {
+               std::copy_n(v.logodds, n, o);
+             });
            }, "float32 (rows, cols) log-odds, NaN = unknown (a copy).")
       .def("cell", [](const OccupancyGrid& g, double x, double y) {
              const auto [row, col] = g.cell_of(x, y);
