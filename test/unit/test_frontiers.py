@@ -228,6 +228,21 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_cos
     assert b_wide.reachable and b_wide.goal_cell == (19, 42)
 
 
+def test_a_frontier_in_a_tight_spot_gets_a_goal_across_the_wall_band(burger_costmap_settings):
+    # Room A's top-wall gap (unknown, cols 10..15): the free cells just below it lie in the
+    # wall band, above max_cost 128 (0.135 m beyond the inscribed band) but below inscribed.
+    # The goal must stand on a cell <= max_cost, further into the room; the walk from the
+    # frontier to it crosses the band (a walk confined to cells <= max_cost found no goal).
+    occ = two_rooms(door_rows=(10, 11))
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    settings = FrontierSettings(max_cost=128)
+    a, _ = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), settings)
+    assert a.reachable and costmap[a.goal_cell] <= 128
+    # the band the walk crosses: cells between the gap and the goal above max_cost
+    r, c = a.goal_cell
+    assert (costmap[r + 1:20, c] > 128).any() and (costmap[r + 1:20, c] < 253).all()
+
+
 def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings):
     # In the gap room the nearest accessible cell to the representative (20, 14) is (19, 14).
     # Cut it off in the caller's field: the goal moves to the nearest accessible AND reachable

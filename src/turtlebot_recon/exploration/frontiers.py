@@ -272,7 +272,11 @@ def _snap(costmap: np.ndarray, cost_to_come: np.ndarray, targets: Sequence[Cell]
 def _distance_from(costmap: np.ndarray, target: Cell, settings: FrontierSettings,
                    resolution: float) -> Tuple[Tuple[slice, slice], np.ndarray]:
     """Path distance (m, 8-connected, float32) from ``target`` over the cells of the window
-    of radius snap_radius_m around it, moving only on cells with cost <= max_cost or unknown.
+    of radius snap_radius_m around it, moving only on cells the robot can pass (cost below
+    inscribed) or unknown. The goal must stand on a cell <= max_cost, but the walk to it may
+    cross the band along walls: a frontier in a tight spot (beside a pillar in an alcove) is
+    bordered by such cells, and a walk confined to max_cost cells would find no goal for it
+    although the robot can drive there.
 
     Seed 001 snaps to the nearest accessible cell by straight-line distance, which jumps
     walls: a frontier behind a gap narrower than the robot would borrow a goal in the
@@ -284,7 +288,7 @@ def _distance_from(costmap: np.ndarray, target: Cell, settings: FrontierSettings
     window = (slice(max(r0 - k, 0), min(r0 + k + 1, rows)),
               slice(max(c0 - k, 0), min(c0 + k + 1, cols)))
     cost = costmap[window]
-    passable = (cost <= settings.max_cost) | (cost == NO_INFORMATION)
+    passable = (cost < INSCRIBED) | (cost == NO_INFORMATION)
     local = np.where(passable, FREE_SPACE, LETHAL).astype(np.uint8)
     start = (r0 - window[0].start, c0 - window[1].start)
     local[start] = FREE_SPACE  # the target (a frontier cell, unknown) is where the walk begins
