@@ -101,6 +101,11 @@ class OccupancyGrid {
   // it is not the cell counted last. Returns whether it counted.
   bool add_visit(double x, double y, double speed_mps, double min_speed_mps);
 
+  // The robot stands on the disc of radius_m around (x, y): its cells that are still unknown
+  // (under the body, inside the lidar's minimum range) become free (p_min: it stands there).
+  // Known cells keep their value. Returns the number of cells changed.
+  int free_unknown_disc(double x, double y, double radius_m);
+
   // Every cell unknown, every visit count 0; size and origin stay.
   void clear();
 

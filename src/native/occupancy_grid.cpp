@@ -227,6 +227,30 @@ bool OccupancyGrid::add_visit(double x, double y, double speed_mps, double min_s
   return true;
 }
 
+int OccupancyGrid::free_unknown_disc(double x, double y, double radius_m) {
+  check(std::isfinite(x) && std::isfinite(y), "free_unknown_disc: position must be finite");
+  check(std::isfinite(radius_m) && radius_m >= 0 && radius_m <= 10.0,
+        "free_unknown_disc: radius_m must be in [0, 10]");
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double res = settings_.resolution;
+  const int k = static_cast<int>(std::ceil(radius_m / res));
+  const Cell centre = global_cell(x, y);
+  grow_to_cover(Box{centre.row - k, centre.row + k, centre.col - k, centre.col + k});
+  int changed = 0;
+  for (int r = centre.row - k; r <= centre.row + k; ++r) {
+    for (int c = centre.col - k; c <= centre.col + k; ++c) {
+      const double cx = settings_.origin_x + (c + 0.5) * res - x;   // global cells
+      const double cy = settings_.origin_y + (r + 0.5) * res - y;
+      if (cx * cx + cy * cy > radius_m * radius_m) continue;
+      float& l = logodds_[index(Cell{r, c})];
+      if (!std::isnan(l)) continue;
+      l = l_min_;   // the robot stands there: as free as the map says anything
+      ++changed;
+    }
+  }
+  return changed;
+}
+
 void OccupancyGrid::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::fill(logodds_.begin(), logodds_.end(), std::numeric_limits<float>::quiet_NaN());
@@ -440,6 +464,10 @@ void register_mapping(py::module_& m) {
            py::arg("min_speed_mps"),
            "Count a visit of the cell holding (x, y) if moving at >= min_speed_mps and not in the\n"
            "cell counted last. Returns whether it counted.")
+      .def("free_unknown_disc", &OccupancyGrid::free_unknown_disc, py::arg("x"), py::arg("y"),
+           py::arg("radius_m"),
+           "The robot stands on the disc of radius_m around (x, y): its still-unknown cells become\n"
+           "free (p_min; known cells keep their value). Returns the number of cells changed.")
       .def("occupancy",
            [](const OccupancyGrid& g) {
              return export_cells<std::int8_t>(g, [](const GridView& v, std::int8_t* o, std::size_t n) {

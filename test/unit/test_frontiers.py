@@ -243,6 +243,21 @@ def test_a_frontier_in_a_tight_spot_gets_a_goal_across_the_wall_band(burger_cost
     assert (costmap[r + 1:20, c] > 128).any() and (costmap[r + 1:20, c] < 253).all()
 
 
+def test_a_corridor_without_cheap_cells_still_gets_a_goal(burger_costmap_settings):
+    # Walls on rows 10 and 16, free rows 11..15 (5 cells) to col 39, unknown beyond: the
+    # middle row is 3 cells = 0.15 m from the wall cells' centres, 0.02 m past the 0.13 m
+    # inscribed band (0.105 m + half a cell): cost floor(252 exp(-5 * 0.02)) = 228. No cell
+    # is <= max_cost 128, so the goal takes the cheapest band a robot can pass (< 253).
+    occ = np.full((27, 60), UNKNOWN, np.int8)
+    occ[10, :40] = occ[16, :40] = WALL
+    occ[11:16, :40] = FREE
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert costmap[13, 20] == 228 and (costmap[11:16, 20] >= 228).all()
+    [f] = [f for f in detect(occ, RES, (0.0, 0.0), costmap, (13, 5), FrontierSettings(max_cost=128))
+           if f.size >= 5]
+    assert f.reachable and f.goal_cell[0] == 13 and 128 < costmap[f.goal_cell] < 253
+
+
 def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings):
     # In the gap room the nearest accessible cell to the representative (20, 14) is (19, 14).
     # Cut it off in the caller's field: the goal moves to the nearest accessible AND reachable

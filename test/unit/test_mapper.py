@@ -122,3 +122,26 @@ def test_mapping_a_simulated_room_is_precise(tmp_path, mapper):
     p = map_precision(g.occupancy(), g.resolution, (g.origin_x, g.origin_y), world, world.start)
     assert p["map_precision_occupied"] >= 0.98 and p["map_precision_free"] >= 0.98
     assert p["cells_free"] * g.resolution ** 2 > 4.0      # most of the 6 m^2 room seen
+
+
+def test_the_floor_under_the_robot_is_free_once_it_stands_there():
+    # A waffle_pi-like box: disc 0.1 m ahead of base_footprint, radius 0.14 m. Standing at
+    # (1.0, 1.0) facing +y, its cells that are unknown become free; a known occupied cell
+    # inside the disc keeps its value; cells outside stay unknown.
+    core = Mapper(MapperSettings(), robot_radius_m=0.257, body_disc=(0.1, 0.14))
+    g = core.grid
+    g.mark_bumper(1.0, 1.0, math.pi / 2, 0.0, 0.05, 1)    # an occupied cell at ~(1.0, 1.075)
+    before = g.occupancy().copy()
+    core.motion((1.0, 1.0, math.pi / 2), 0.0)
+    occ = g.occupancy()
+
+    def at(x, y):
+        return occ[int(math.floor((y - g.origin_y) / g.resolution)), int(math.floor((x - g.origin_x) / g.resolution))]
+
+    assert 0 <= at(1.0, 1.2) <= 25 and 0 <= at(1.1, 1.1) <= 25     # inside the disc about (1.0, 1.1)
+    assert at(1.0, 1.3) == -1 and at(1.0, 0.9) == -1               # beyond it (0.2 m from its centre)
+    changed = (before != occ)
+    assert (occ[changed] >= 0).all() and (occ[changed] <= 25).all()
+    assert (occ >= 65).sum() == (before >= 65).sum() == 1            # the known cell kept
+    # a second call changes nothing: those cells are known now
+    assert g.free_unknown_disc(1.0, 1.1, 0.14) == 0

@@ -58,7 +58,8 @@ class FrontierSettings:
     extend_into_unknown_m: float = 0.0  # push the representative point this far from the robot
                                         # into unknown space before snapping (seed 004); 0: off
     snap_radius_m: float = 1.0          # search radius (path length) for the goal cell
-    max_cost: int = 252                 # a goal cell's cost must be <= this (not inscribed/lethal)
+    max_cost: int = 252                 # a goal cell's cost should be <= this; if no such cell is
+                                        # near, any cell below inscribed
 
     def validate(self, src: str) -> None:
         require(isinstance(self.free_threshold, int) and 0 <= self.free_threshold <= 100, src,
@@ -250,22 +251,27 @@ def _snap(costmap: np.ndarray, cost_to_come: np.ndarray, targets: Sequence[Cell]
     """(goal cell, reachable). For each target in turn (the extended point, then the
     representative one), the cell nearest to it by a path within snap_radius_m
     (_distance_from) that the robot can stand on and reach: a finite cost-to-come and a known
-    cost <= max_cost, or unknown (255) where the caller's field crosses unknown space (a
+    cost <= max_cost (if there is none for any target: any cost below inscribed), or unknown (255) where the caller's field crosses unknown space (a
     planner with unknown_cost >= 0, like Nav2's allow_unknown in seed 004). With none, an
     unreachable goal for the report: the nearest cell it could stand on, else the
     representative cell itself. Ties go to the smaller row, then column."""
     fallback: Optional[Cell] = None
-    for target in dict.fromkeys(targets):  # unique, in order
-        window, distance = _distance_from(costmap, target, settings, resolution)
-        cost = costmap[window]
-        near = distance <= settings.snap_radius_m + 1e-9
-        standable = cost <= settings.max_cost
-        reached = np.isfinite(cost_to_come[window])
-        goal = _nearest(distance, near & (standable | (cost == NO_INFORMATION)) & reached, window)
-        if goal is not None:
-            return goal, True
-        if fallback is None:
-            fallback = _nearest(distance, near & standable, window)
+    walks = [(target, *_distance_from(costmap, target, settings, resolution))
+             for target in dict.fromkeys(targets)]   # unique, in order
+    # max_cost first; where no cell that cheap is near (a corridor barely wider than the
+    # robot has none), any cell the robot can pass: it turns in place safely on any of them
+    # (the inscribed radius is the circumscribed one).
+    for max_cost in dict.fromkeys((settings.max_cost, INSCRIBED - 1)):
+        for target, window, distance in walks:
+            cost = costmap[window]
+            near = distance <= settings.snap_radius_m + 1e-9
+            standable = cost <= max_cost
+            reached = np.isfinite(cost_to_come[window])
+            goal = _nearest(distance, near & (standable | (cost == NO_INFORMATION)) & reached, window)
+            if goal is not None:
+                return goal, True
+            if fallback is None:
+                fallback = _nearest(distance, near & standable, window)
     return (targets[-1] if fallback is None else fallback), False
 
 

@@ -50,9 +50,13 @@ class Scan:
 
 
 class Mapper:
-    def __init__(self, settings: MapperSettings, robot_radius_m: float):
+    def __init__(self, settings: MapperSettings, robot_radius_m: float,
+                 body_disc: tuple | None = None):
         self.settings = settings
-        self.robot_radius_m = robot_radius_m
+        self.robot_radius_m = robot_radius_m     # the bumpers' circle
+        # (centre ahead of base_footprint m, radius m): a disc inside the body; default the
+        # round body of robot_radius_m
+        self.body_disc = (0.0, robot_radius_m) if body_disc is None else body_disc
         self.grid = make_grid(settings.grid)
         self.skipped = Counter()     # whole scans ignored, by reason
         self.beams = Counter()       # beams by class (valid, no_return, capped, too_close, nan)
@@ -110,6 +114,12 @@ class Mapper:
 
     def motion(self, base_pose: tuple, speed_mps: float) -> None:
         self.grid.add_visit(base_pose[0], base_pose[1], abs(speed_mps), self.settings.grid.visit_min_speed_mps)
+        # The lidar never sees the floor under the body (inside its minimum range): those
+        # cells would stay unknown and make a frontier at the robot's own feet (a nearest-
+        # frontier explorer then "reaches" it forever). The robot stands there: free.
+        ahead, radius = self.body_disc
+        self.grid.free_unknown_disc(base_pose[0] + ahead * math.cos(base_pose[2]),
+                                    base_pose[1] + ahead * math.sin(base_pose[2]), radius)
 
     def diagnostics(self) -> str:
         beams = ", ".join(f"{k} {v}" for k, v in sorted(self.beams.items()) if v)

@@ -115,7 +115,9 @@ def find_start(free, res, origin, prefer_xy, yaw=0.0, min_clear=START_CLEARANCE)
     rows, cols = np.nonzero((labels == main) & (clear >= min_clear + res))   # + res: pixel rounding
     xs, ys = px_to_world(rows, cols, free.shape, res, origin)
     i = int(np.argmin((xs - prefer_xy[0]) ** 2 + (ys - prefer_xy[1]) ** 2))
-    return [float(xs[i]), float(ys[i]), float(yaw)]
+    # The pixel's lower-left corner, not its centre: the robot's map (origin at the start pose)
+    # then lies on the world's grid, and a wall face on a cell boundary of both.
+    return [float(xs[i] - 0.5 * res), float(ys[i] - 0.5 * res), float(yaw)]
 
 
 def _fps(points, k, rng, weight=None, group=None):
@@ -380,7 +382,9 @@ def maze(seed=2, n=11, cell=0.6, wall=0.1):
         x = x0(i) + cell / 2 - di * cell / 2 + cv.margin
         y = x0(j) + cell / 2 - dj * cell / 2 + cv.margin
         tags.append(make_tag(k, "tag36h11", x, y, math.atan2(dj, di)))
-    return _finish(cv, "maze", (pitch, pitch), math.pi / 4, 0, rng, tags=tags)
+    # yaw 0: a start yaw off the grid's axes rasterises the 0.6 m corridors diagonally in the
+    # robot's map, and a waffle_pi (0.514 m swept disc) no longer fits through them
+    return _finish(cv, "maze", (pitch, pitch), 0.0, 0, rng, tags=tags)
 
 
 def office(seed=3):
