@@ -398,7 +398,7 @@ def test_never_nan_on_random_inputs():
 
 def l_corridor():
     """1 m wide L-shaped corridor: x in [0, 4] x y in [0, 1], then x in [3, 4] x y in [0, 4];
-    walls everywhere else; inflated for the waffle_pi (inscribed 0.14 m, inflation 0.49 m)."""
+    walls everywhere else; inflated for the waffle_pi (inscribed 0.257 + 0.025 m, inflation 0.607 + 0.025 m)."""
     origin = (-0.5, -0.5)
     n = 110
     centres = origin[0] + (np.arange(n) + 0.5) * RES

@@ -25,9 +25,10 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               into the inflation); if even that is blocked: zero command, "blocked" (the
               navigator replans). The robot standing on lethal cost is "blocked" too.
 
-Only the footprint's centre is checked, against the inflated costmap (inscribed radius = the
-largest circle inside the footprint); turning in place does not move the centre, so it is not
-checked. The follower never reverses.
+Only the footprint's centre is checked, against the inflated costmap, whose inscribed radius
+is the footprint's circumscribed radius about base_footprint plus half a cell
+(``CostmapSettings.for_robot``, ``make_costmap``): turning in place sweeps that disc and does
+not move the centre, so it is safe wherever the centre is. The follower never reverses.
 """
 from __future__ import annotations
 
