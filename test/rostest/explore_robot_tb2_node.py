@@ -78,6 +78,8 @@ class ExploreRobotTB2(unittest.TestCase):
         self.assertLessEqual({"/explorer", "/navigator"}, publishers.get(VELOCITY, set()))
         self.assertEqual(publishers.get("/cmd_vel", set()), set(), "nothing may command /cmd_vel on a TurtleBot 2")
         self.assertTrue(self.maps and self.maps[-1].header.frame_id == "odom", "no /map in odom")
+        # the mapper has the base's transform once scans land in the map
+        self.wait(lambda: sum(v >= 0 for v in self.maps[-1].data) > 500, 10.0, "scans in /map")
 
         # 2. A kobuki-typed right bumper press reaches the explorer and the mapper.
         pub = rospy.Publisher(BUMPER, KobukiBumperEvent, queue_size=5)
