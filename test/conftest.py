@@ -91,6 +91,33 @@ def bresenham(a, b, include_end=True):
     return cells
 
 
+def grid_traversal(x0, y0, x1, y1, include_end=True):
+    """Cells (row, col) of the segment (x0, y0) -> (x1, y1), in cell units (cell (r, c) is the
+    square c <= x < c + 1, r <= y < r + 1), every cell it passes through in order; the end
+    cell last, or left out with ``include_end=False``.
+
+    The plain-Python reference for the C++ walk (include/turtlebot_recon/grid_traversal.hpp,
+    Amanatides & Woo): the same arithmetic in the same order, so the same cells; at a corner
+    it steps in rows first."""
+    r, c = math.floor(y0), math.floor(x0)
+    rows_left, cols_left = abs(math.floor(y1) - r), abs(math.floor(x1) - c)
+    sr, sc = (1 if y1 > y0 else -1), (1 if x1 > x0 else -1)
+    dx, dy = x1 - x0, y1 - y0
+    never = math.inf
+    t_col = (math.floor(x0) + 1.0 - x0) / dx if dx > 0 else (math.floor(x0) - x0) / dx if dx < 0 else never
+    t_row = (math.floor(y0) + 1.0 - y0) / dy if dy > 0 else (math.floor(y0) - y0) / dy if dy < 0 else never
+    dt_col = 1.0 / abs(dx) if dx != 0 else never
+    dt_row = 1.0 / abs(dy) if dy != 0 else never
+    cells = []
+    for _ in range(rows_left + cols_left + (1 if include_end else 0)):
+        cells.append((r, c))
+        if cols_left > 0 and (rows_left == 0 or t_col < t_row):
+            c, t_col, cols_left = c + sc, t_col + dt_col, cols_left - 1
+        elif rows_left > 0:
+            r, t_row, rows_left = r + sr, t_row + dt_row, rows_left - 1
+    return cells
+
+
 def ray_cells(origin, radius, beams, shape):
     """Reference rays of the C++ visibility walker: for each of ``beams`` bearings, the cells
     (row, col, is_origin) of the Bresenham line from ``origin`` toward the point ``radius``

@@ -1,5 +1,6 @@
-// Bresenham's integer line walk, shared by the path shortcut (grid_search.hpp), the viewpoint
-// rays (visibility.hpp) and the ray tracing of OccupancyGrid::insert_scan.
+// Bresenham's integer line walk between cell centres, shared by the path shortcut
+// (grid_search.hpp) and the viewpoint rays (visibility.hpp). A lidar beam between real points
+// is traced exactly instead (grid_traversal.hpp).
 //
 // The line (r0, c0) -> (r1, c1) is walked one cell per step along the major axis (the larger
 // of |r1 - r0| and |c1 - c0|), maybe one along the minor axis, both towards the end cell:
@@ -8,10 +9,9 @@
 // reading the axes (rows as x or as y); the Python reference is test/conftest.py's bresenham.
 //
 // Templates, not std::function: the visitor is inlined into the loop, as fast as a
-// hand-written walk (insert_scan, visible_unknown and shortcut all run it per cell).
-// bresenham_line hands the visitor (row, col); insert_scan's ray tracing uses bresenham_walk
-// on a flat buffer index instead, one add per step rather than a row * cols multiply per cell
-// (measured ~20 % faster there).
+// hand-written walk (visible_unknown and shortcut run it per cell). bresenham_line hands the
+// visitor (row, col); bresenham_walk also walks a flat buffer index, one add per step rather
+// than a row * cols multiply per cell (measured ~20 % faster in insert_scan's ray tracing).
 #pragma once
 
 #include <algorithm>

@@ -80,9 +80,10 @@ class OccupancyGrid {
   // Throws std::invalid_argument when a setting is out of range.
   explicit OccupancyGrid(const GridSettings& settings);
 
-  // Ray-casts every beam from the sensor cell to its end cell: the end cell of a valid
-  // return is a hit; the cells before it (the sensor cell included) are crossed, and so are
-  // those of a clearing ray (no return, capped), which leaves its end cell alone. Updates go
+  // Ray-casts every beam from the sensor to its end point: the end cell of a valid return is
+  // a hit; the cells the beam passes through before it (the sensor cell included, every
+  // cell the segment touches: grid_traversal.hpp) are crossed, and so are those of a clearing
+  // ray (no return, capped), which leaves its end cell alone. Updates go
   // by cell, not by beam (OctoMap's insertPointCloud rule): within one scan every cell is
   // updated at most once, one hit for a cell that is the hit of any valid beam (even if
   // other beams cross it: occupied wins), one miss for every other crossed cell however many
@@ -134,8 +135,9 @@ class OccupancyGrid {
     bool operator==(const Cell& o) const { return row == o.row && col == o.col; }
     bool operator!=(const Cell& o) const { return !(*this == o); }
   };
-  struct Ray {  // one beam to trace: global end cell, and whether it ends in a hit
-    Cell end;
+  struct Ray {  // one beam to trace: global end cell, its end point (global cell units),
+    Cell end;   // and whether it ends in a hit
+    double x, y;
     bool hit;
   };
   struct Box {  // inclusive bounds in global cells
@@ -143,13 +145,16 @@ class OccupancyGrid {
     void include(const Cell& c);
   };
 
+  // (x, y) m -> global cell units: cell (row, col) is col <= x' < col + 1, row <= y' < row + 1.
+  double grid_x(double x) const { return (x - settings_.origin_x) / settings_.resolution; }
+  double grid_y(double y) const { return (y - settings_.origin_y) / settings_.resolution; }
   Cell global_cell(double x, double y) const;  // throws on non-finite / absurd coordinates
   std::size_t index(const Cell& c) const {
     return static_cast<std::size_t>(c.row - row_offset_) * cols_ + (c.col - col_offset_);
   }
   void grow_to_cover(const Box& box);
   std::uint32_t next_scan_stamp();
-  void trace_misses(const Cell& from, const Cell& to, std::uint32_t stamp);
+  void trace_misses(const Cell& from, double x0, double y0, const Ray& ray, std::uint32_t stamp);
   void update(float& logodds, float delta) const;
 
   GridSettings settings_;

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "turtlebot_recon/bresenham.hpp"
+#include "turtlebot_recon/grid_traversal.hpp"
 
 namespace turtlebot_recon {
 
@@ -123,10 +123,10 @@ ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
       hit = true;
     }
     const double angle = scan.sensor_yaw + scan.angle_min + static_cast<double>(i) * scan.angle_increment;
-    const Cell end = global_cell(scan.sensor_x + reach * std::cos(angle),
-                                 scan.sensor_y + reach * std::sin(angle));
+    const double x = scan.sensor_x + reach * std::cos(angle), y = scan.sensor_y + reach * std::sin(angle);
+    const Cell end = global_cell(x, y);
     box.include(end);
-    rays_.push_back({end, hit});
+    rays_.push_back({end, grid_x(x), grid_y(y), hit});
   }
 
   // 2. Grow once so that every ray fits (a scan with nothing to trace writes nothing).
@@ -145,7 +145,8 @@ ScanStats OccupancyGrid::insert_scan(const Scan& scan) {
   }
 
   // 4. One miss on every other cell that any ray crosses.
-  for (const Ray& ray : rays_) trace_misses(sensor, ray.end, stamp);
+  const double sx = grid_x(scan.sensor_x), sy = grid_y(scan.sensor_y);
+  for (const Ray& ray : rays_) trace_misses(sensor, sx, sy, ray, stamp);
   return stats;
 }
 
@@ -165,16 +166,18 @@ inline void OccupancyGrid::update(float& l, float delta) const {
   l = std::clamp(prior + delta, l_min_, l_max_);
 }
 
-// Bresenham's line from the sensor cell to the end cell: a miss on every cell before the
-// end cell (the sensor cell included) that this scan has not updated yet (a hit cell, or one
-// an earlier ray crossed), stamping it. The end cell is left alone (its hit, if any, is done).
-// Walks one offset into the log-odds and stamp buffers (a row step is +-cols_ cells).
-void OccupancyGrid::trace_misses(const Cell& from, const Cell& to, std::uint32_t stamp) {
+// The beam from the sensor point (x0, y0) in cell `from` to its end point, cell by cell through
+// every cell it passes (grid_traversal.hpp): a miss on every cell before the end cell (the
+// sensor cell included) that this scan has not updated yet (a hit cell, or one an earlier ray
+// crossed), stamping it. The end cell is left alone (its hit, if any, is done). Walks one
+// offset into the log-odds and stamp buffers (a row step is +-cols_ cells).
+void OccupancyGrid::trace_misses(const Cell& from, double x0, double y0, const Ray& ray,
+                                 std::uint32_t stamp) {
   float* const logodds = logodds_.data();
   std::uint32_t* const stamps = scan_stamps_.data();
   const auto start = static_cast<std::ptrdiff_t>(index(from));
-  bresenham_walk(start, to.row - from.row, to.col - from.col, std::ptrdiff_t{cols_},
-                 std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
+  traverse_segment(start, x0, y0, ray.x, ray.y, ray.end.row - from.row, ray.end.col - from.col,
+                   std::ptrdiff_t{cols_}, std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
                    if (stamps[i] != stamp) {
                      stamps[i] = stamp;
                      update(logodds[i], l_miss_);
@@ -262,8 +265,8 @@ void OccupancyGrid::clear() {
 // Geometry and growth.
 
 OccupancyGrid::Cell OccupancyGrid::global_cell(double x, double y) const {
-  const double col = std::floor((x - settings_.origin_x) / settings_.resolution);
-  const double row = std::floor((y - settings_.origin_y) / settings_.resolution);
+  const double col = std::floor(grid_x(x));
+  const double row = std::floor(grid_y(y));
   if (!(std::abs(col) < kMaxCellIndex && std::abs(row) < kMaxCellIndex))  // message built only on failure
     throw std::invalid_argument("OccupancyGrid: point (" + std::to_string(x) + ", " +
                                 std::to_string(y) + ") is not a finite position near the map");

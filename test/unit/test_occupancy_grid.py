@@ -21,7 +21,7 @@ import pytest
 from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.mapping import GridSettings, OccupancyGrid, ScanStats, make_grid
 
-from conftest import bresenham
+from conftest import grid_traversal
 
 HIT, MISS, L_MIN, L_MAX = 0.847298, -0.405465, -1.992430, 3.476099
 INF, NAN = math.inf, math.nan
@@ -66,7 +66,7 @@ class Reference:
     def insert_scan(self, sx, sy, syaw, ranges, angle_min, angle_inc, range_min, range_max,
                     clear_m=0.0, cap_m=0.0):
         stats = {"valid": 0, "no_return": 0, "capped": 0, "too_close": 0, "nan": 0}
-        sensor = self.global_cell(sx, sy)
+        sensor = ((sx - self.ox) / self.res, (sy - self.oy) / self.res)   # cell units
         rays = []
         for i in range(len(ranges)):
             kind, reach, hit = classify(float(ranges[i]), range_min, range_max, clear_m, cap_m)
@@ -76,12 +76,13 @@ class Reference:
             if hit:                       # the hit lies half a cell beyond the surface
                 reach += 0.5 * self.res
             a = syaw + angle_min + i * angle_inc
-            rays.append((self.global_cell(sx + reach * math.cos(a), sy + reach * math.sin(a)), hit))
+            x, y = sx + reach * math.cos(a), sy + reach * math.sin(a)
+            rays.append(((x - self.ox) / self.res, (y - self.oy) / self.res, hit))
         hits, crossed = set(), set()
-        for end, hit in rays:
-            crossed.update(bresenham(sensor, end, include_end=False))
+        for x, y, hit in rays:
+            crossed.update(grid_traversal(*sensor, x, y, include_end=False))
             if hit:
-                hits.add(end)
+                hits.add((math.floor(y), math.floor(x)))
         for cell in hits:                 # one hit each, even if some ray crosses it
             self.update(cell, self.l_hit)
         for cell in crossed - hits:       # one miss each, however many rays cross it
@@ -119,18 +120,20 @@ def known_cells(grid):
 # ----------------------------------------------------------------------------------------
 # The reference itself draws proper lines.
 
-def test_reference_bresenham_is_a_connected_line_close_to_the_ideal():
+def test_reference_traversal_visits_every_cell_the_segment_touches():
     rng = np.random.default_rng(7)
-    for _ in range(200):
-        r0, c0, r1, c1 = (int(v) for v in rng.integers(-30, 30, 4))
-        cells = bresenham((r0, c0), (r1, c1), include_end=False) + [(r1, c1)]
-        assert cells[0] == (r0, c0)
-        assert len(cells) == max(abs(r1 - r0), abs(c1 - c0)) + 1       # one cell per main-axis step
+    for _ in range(300):
+        x0, y0, x1, y1 = (float(v) for v in rng.uniform(-30.0, 30.0, 4))
+        cells = grid_traversal(x0, y0, x1, y1)
+        assert cells[0] == (math.floor(y0), math.floor(x0)) and cells[-1] == (math.floor(y1), math.floor(x1))
+        assert len(cells) == len(set(cells)) == \
+            abs(math.floor(y1) - math.floor(y0)) + abs(math.floor(x1) - math.floor(x0)) + 1
         for (ra, ca), (rb, cb) in zip(cells, cells[1:]):
-            assert max(abs(rb - ra), abs(cb - ca)) == 1                # 8-connected
-        length = math.hypot(r1 - r0, c1 - c0) or 1.0
-        for r, c in cells:                                             # within 1/sqrt(2) cell of the line
-            assert abs((r - r0) * (c1 - c0) - (c - c0) * (r1 - r0)) / length <= 0.7072
+            assert abs(rb - ra) + abs(cb - ca) == 1                    # 4-connected
+        for t in np.linspace(0.0, 1.0, 4001):                        # every point of the segment
+            assert (math.floor(y0 + t * (y1 - y0)), math.floor(x0 + t * (x1 - x0))) in cells
+    assert grid_traversal(0.5, 0.5, 2.5, 2.5, include_end=False) == [(0, 0), (1, 0), (1, 1), (2, 1)]
+    assert grid_traversal(3.2, 1.7, 3.9, 1.1) == [(1, 3)]
 
 
 # ----------------------------------------------------------------------------------------
@@ -213,10 +216,16 @@ def test_one_beam_along_x_misses_then_hits_then_clamps():
 
 def test_diagonal_beam_and_a_cell_both_hit_and_crossed():
     grid = OccupancyGrid(0.1)
-    # 45 deg, 0.5 * sqrt(2) m: ends at (0.55, 0.55) = cell (55, 55); misses on the diagonal 50..54.
-    scan(grid, [0.5 * math.sqrt(2)], yaw=math.pi / 4)
+    # 45 deg from (0.03, 0.05), 0.5 * sqrt(2) m, hit placed 0.05 m further: ends at
+    # (0.565, 0.585) = cell (55, 55). The beam crosses y = 0.1 at x = 0.08, then x = 0.1 at
+    # y = 0.12, ...: a row step, then a column step, every cell it touches (a Bresenham line
+    # between the cells would go (50, 50), (51, 51), ... and miss half of them).
+    scan(grid, [0.5 * math.sqrt(2)], x=0.03, yaw=math.pi / 4)
     cells = known_cells(grid)
-    assert sorted(cells) == [(k, k) for k in range(50, 56)]
+    crossed = [(50, 50)] + [cell for k in range(51, 55) for cell in ((k, k - 1), (k, k))] + [(55, 54)]
+    assert sorted(cells) == sorted(crossed + [(55, 55)])
+    for cell in crossed:
+        assert cells[cell] == pytest.approx(MISS, abs=1e-6), cell
     assert cells[(55, 55)] == pytest.approx(HIT, abs=1e-6)
     # Two beams along +x in one scan: 0.5 m hits column 55, 1.0 m crosses it and hits column 60.
     # One update per cell per scan: column 55 is a hit cell, so it gets the hit only (occupied
@@ -342,9 +351,9 @@ def test_a_hit_in_the_sensor_cell_is_not_cleared_by_the_other_rays():
 
 def test_grazing_beams_do_not_erode_a_wall():
     """A wall along y = 1.02 m (row 60), seen from (0.05, 0.05) by beams every 0.5 deg from 20
-    to 160 deg: shallow beams cross row-60 cells on their last steps (Bresenham reaches the row
-    before the end cell) that steeper beams hit. Per beam those wall cells would get a hit and
-    one or more misses; per cell every wall cell keeps exactly one hit."""
+    to 160 deg: a shallow beam crosses row-60 cells between entering the row and its end point
+    (half a cell beyond the surface) that steeper beams hit. Per beam those wall cells would
+    get a hit and one or more misses; per cell every wall cell keeps exactly one hit."""
     grid = OccupancyGrid(0.1)
     angles = np.radians(np.arange(20.0, 160.1, 0.5))
     ranges = (0.97 / np.sin(angles)).astype(np.float32)          # to y = 0.05 + 0.97 = 1.02
@@ -353,12 +362,13 @@ def test_grazing_beams_do_not_erode_a_wall():
     hits, crossed = set(), set()
     for i, r in enumerate(ranges.astype(float)):
         a = 0.0 + float(angles[0]) + i * math.radians(0.5)       # as insert_scan computes it
-        end = ref.global_cell(0.05 + r * math.cos(a), 0.05 + r * math.sin(a))
-        hits.add(end)
-        crossed.update(bresenham((50, 50), end, include_end=False))
+        x, y = 0.05 + (r + 0.05) * math.cos(a), 0.05 + (r + 0.05) * math.sin(a)
+        hits.add(ref.global_cell(x, y))
+        crossed.update(grid_traversal((0.05 + 5.0) / 0.1, (0.05 + 5.0) / 0.1, (x + 5.0) / 0.1, (y + 5.0) / 0.1,
+                                      include_end=False))                 # cell units, origin -5 m
     assert {r for r, _ in hits} == {60}                           # every return is on the wall
-    # ... and the test means something: 16 of the 55 wall cells are crossed, 10 of them by two
-    # beams (per beam those would end at 0.847298 - 2 * 0.405465 = 0.036368, p = 0.51)
+    # ... and the test means something: wall cells that shallow beams cross (per beam those
+    # would end at 0.847298 - 0.405465 = 0.441833, p = 0.61, or lower)
     assert len(hits & crossed) >= 5
     cells = known_cells(grid)
     assert set(cells) == hits | crossed
