@@ -59,10 +59,10 @@ def gap_room():
 def two_rooms(door_rows):
     """30 x 60 cells: room A (cols 3..27) and room B (cols 31..56), rows 3..19, split by a
     wall 3 cells thick (cols 28..30) with a door over `door_rows` (inclusive); each room's
-    top wall has a 6-cell unknown gap: A cols 10..15, B cols 40..45."""
+    top wall has a 10-cell (0.5 m) unknown gap: A cols 10..19, B cols 40..49."""
     occ = np.full((30, 60), UNKNOWN, np.int8)
-    walled_room(occ, (3, 19), (3, 27), gap_cols=(10, 15))
-    walled_room(occ, (3, 19), (31, 56), gap_cols=(40, 45))
+    walled_room(occ, (3, 19), (3, 27), gap_cols=(10, 19))
+    walled_room(occ, (3, 19), (31, 56), gap_cols=(40, 49))
     occ[3:20, 28:31] = WALL
     occ[door_rows[0]:door_rows[1] + 1, 28:31] = FREE
     return occ
@@ -70,7 +70,8 @@ def two_rooms(door_rows):
 
 @pytest.fixture(scope="module")
 def burger_costmap_settings():
-    # Inscribed radius 0.105 m = 2.1 cells: a cell 1 or 2 cells from a wall is inscribed (253).
+    # Inscribed radius 0.105 m + one cell diagonal = 3.5 cells: a cell 1 to 3 cells from a wall
+    # is inscribed (253).
     return CostmapSettings.for_robot(load_robot("turtlebot3_burger"))
 
 
@@ -141,12 +142,12 @@ def test_cluster_joins_diagonal_cells():
 
 
 def test_two_rooms_give_two_clusters():
-    # Each room's gap is its own frontier: A = row 20, cols 10..15; B = row 20, cols 40..45
-    # (6 cells each; the unknown row 21 above touches no free cell).
+    # Each room's gap is its own frontier: A = row 20, cols 10..19; B = row 20, cols 40..49
+    # (10 cells each; the unknown row 21 above touches no free cell).
     occ = two_rooms(door_rows=(8, 13))
     clusters = cluster(find_frontier_cells(occ, 25), 3)
-    assert cells_of(clusters) == [[(20, c) for c in range(10, 16)],
-                                  [(20, c) for c in range(40, 46)]]
+    assert cells_of(clusters) == [[(20, c) for c in range(10, 20)],
+                                  [(20, c) for c in range(40, 50)]]
 
 
 # ---------------------------------------------------------------- detect: goals
@@ -206,7 +207,7 @@ def test_path_cost_is_the_dijkstra_field_and_gain_the_ray_count(burger_costmap_s
 
 def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_costmap_settings):
     # Door of 2 cells (0.1 m) for a robot 0.21 m wide: every door cell is 1 cell from a door
-    # post, inside the 2.1-cell inscribed radius, so room B is cut off.
+    # post, inside the 3.5-cell inscribed radius, so room B is cut off.
     occ = two_rooms(door_rows=(10, 11))
     costmap = make_costmap(occ, RES, burger_costmap_settings)
     assert (costmap[10:12, 28:31] >= 253).all()
@@ -214,22 +215,20 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_cos
     assert a.reachable and math.isfinite(a.path_cost_m)
     assert not b.reachable
     assert b.path_cost_m == math.inf
-    # Still reported, at the nearest accessible cell to its representative (20, 42): (19, 42)
-    # (3.2 cells = 0.16 m from the wall cell (20, 39), so below inscribed). A straight-line
-    # search for the nearest reachable cell would jump the wall into room A: (17, 25) is
-    # sqrt(3^2 + 17^2) = 17.3 cells = 0.87 m < the 1 m snap radius away. Measured along
+    # Still reported, at the nearest accessible cell to its representative (20, 44): (19, 44)
+    # (5.1 cells = 0.255 m from the wall cell (20, 39), so below inscribed). Measured along
     # cells the robot could stand on, room A is only reached through the door: not at all.
-    assert b.goal_cell == (19, 42)
+    assert b.goal_cell == (19, 44)
     assert costmap[b.goal_cell] <= 252
     # Widen the door to 12 cells (0.6 m): B becomes reachable at the same goal.
     wide = two_rooms(door_rows=(6, 17))
     _, b_wide = detect(wide, RES, (0.0, 0.0), make_costmap(wide, RES, burger_costmap_settings),
                        (10, 14), FrontierSettings())
-    assert b_wide.reachable and b_wide.goal_cell == (19, 42)
+    assert b_wide.reachable and b_wide.goal_cell == (19, 44)
 
 
 def test_a_frontier_in_a_tight_spot_gets_a_goal_across_the_wall_band(burger_costmap_settings):
-    # Room A's top-wall gap (unknown, cols 10..15): the free cells just below it lie in the
+    # Room A's top-wall gap (unknown, cols 10..19): the free cells just below it lie in the
     # wall band, above max_cost 128 (0.135 m beyond the inscribed band) but below inscribed.
     # The goal must stand on a cell <= max_cost, further into the room; the walk from the
     # frontier to it crosses the band (a walk confined to cells <= max_cost found no goal).
@@ -244,18 +243,18 @@ def test_a_frontier_in_a_tight_spot_gets_a_goal_across_the_wall_band(burger_cost
 
 
 def test_a_corridor_without_cheap_cells_still_gets_a_goal(burger_costmap_settings):
-    # Walls on rows 10 and 16, free rows 11..15 (5 cells) to col 39, unknown beyond: the
-    # middle row is 3 cells = 0.15 m from the wall cells' centres, 0.02 m past the 0.13 m
-    # inscribed band (0.105 m + half a cell): cost floor(252 exp(-5 * 0.02)) = 228. No cell
-    # is <= max_cost 128, so the goal takes the cheapest band a robot can pass (< 253).
-    occ = np.full((27, 60), UNKNOWN, np.int8)
-    occ[10, :40] = occ[16, :40] = WALL
-    occ[11:16, :40] = FREE
+    # Walls on rows 10 and 18, free rows 11..17 (7 cells) to col 39, unknown beyond: the
+    # middle row is 4 cells = 0.2 m from the wall cells' centres, 0.0243 m past the 0.1757 m
+    # inscribed band (0.105 m + one cell diagonal): cost floor(252 exp(-5 * 0.0243)) = 223. No
+    # cell is <= max_cost 128, so the goal takes the cheapest band a robot can pass (< 253).
+    occ = np.full((29, 60), UNKNOWN, np.int8)
+    occ[10, :40] = occ[18, :40] = WALL
+    occ[11:18, :40] = FREE
     costmap = make_costmap(occ, RES, burger_costmap_settings)
-    assert costmap[13, 20] == 228 and (costmap[11:16, 20] >= 228).all()
-    [f] = [f for f in detect(occ, RES, (0.0, 0.0), costmap, (13, 5), FrontierSettings(max_cost=128))
+    assert costmap[14, 20] == 223 and (costmap[11:18, 20] >= 223).all()
+    [f] = [f for f in detect(occ, RES, (0.0, 0.0), costmap, (14, 5), FrontierSettings(max_cost=128))
            if f.size >= 5]
-    assert f.reachable and f.goal_cell[0] == 13 and 128 < costmap[f.goal_cell] < 253
+    assert f.reachable and f.goal_cell[0] == 14 and 128 < costmap[f.goal_cell] < 253
 
 
 def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings):
@@ -285,14 +284,14 @@ def test_no_accessible_cell_within_the_snap_radius(burger_costmap_settings):
 
 def test_robot_on_an_inscribed_cell_still_gets_a_field(burger_costmap_settings):
     # (3, 14) is 1 cell above the bottom wall (row 2): inscribed (253), where dijkstra would
-    # refuse to start. The field then starts at the nearest passable cell, (5, 14)
-    # (3 cells = 0.15 m from the wall; (4, 14) at 0.10 m is still inscribed).
+    # refuse to start. The field then starts at the nearest passable cell, (6, 14)
+    # (4 cells = 0.2 m from the wall; (5, 14) at 0.15 m is still inscribed).
     occ = gap_room()
     costmap = make_costmap(occ, RES, burger_costmap_settings)
-    assert costmap[3, 14] == 253 and costmap[4, 14] == 253 and costmap[5, 14] < 253
+    assert (costmap[3:6, 14] == 253).all() and costmap[6, 14] < 253
     (f,) = detect(occ, RES, (0.0, 0.0), costmap, (3, 14), FrontierSettings())
     assert f.reachable
-    assert f.path_cost_m == float(dijkstra(costmap, (5, 14), resolution=RES)[f.goal_cell])
+    assert f.path_cost_m == float(dijkstra(costmap, (6, 14), resolution=RES)[f.goal_cell])
 
 
 def test_extension_into_unknown(burger_costmap_settings):

@@ -606,8 +606,9 @@ def test_make_costmap_and_plan_end_to_end():
     occ[:30, 30] = 100                       # a wall with a gap at the top
     settings = CostmapSettings(inscribed_radius_m=0.1, inflation_radius_m=0.3)
     cost = make_costmap(occ, RES, settings)
-    # both radii half a cell further out: obstacles fill their cells
-    np.testing.assert_array_equal(cost, _native.inflate(occ, RES, 0.125, 0.325, 5.0))
+    # both radii one cell diagonal further out: obstacle and robot each sit anywhere in a cell
+    margin = RES * math.sqrt(2.0)
+    np.testing.assert_array_equal(cost, _native.inflate(occ, RES, 0.1 + margin, 0.3 + margin, 5.0))
     # (31, 31) is sqrt(5) cells = 0.112 m from the wall's end (29, 30): beyond the 0.1 m
     # radius from its centre, but within 0.1 m of its edge
     assert cost[31, 31] == 253 and _native.inflate(occ, RES, 0.1, 0.3, 5.0)[31, 31] < 253

@@ -26,7 +26,7 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               navigator replans). The robot standing on lethal cost is "blocked" too.
 
 Only the footprint's centre is checked, against the inflated costmap, whose inscribed radius
-is the footprint's circumscribed radius about base_footprint plus half a cell
+is the footprint's circumscribed radius about base_footprint plus one cell diagonal
 (``CostmapSettings.for_robot``, ``make_costmap``): turning in place sweeps that disc and does
 not move the centre, so it is safe wherever the centre is. The follower never reverses.
 """

@@ -6,6 +6,7 @@ order); cells are ``(row, col)``. Costs follow the move_base / Nav2 convention: 
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
@@ -82,11 +83,15 @@ class PlannerSettings:
 def make_costmap(occupancy: np.ndarray, resolution: float, settings: CostmapSettings) -> np.ndarray:
     """Inflated uint8 costmap from an int8 occupancy grid (-1 unknown, 0..100).
 
-    An obstacle fills its cell: its edge lies half a cell nearer than its centre, from which
-    the distance field measures. Both radii are therefore applied half a cell further out, so
-    that a centre just outside the inscribed band keeps the body off the obstacle itself.
+    The distance field measures between cell centres, and both ends of a distance sit
+    anywhere in their cells: an obstacle fills its cell, so its nearest point (a corner, seen
+    diagonally) lies up to half a cell diagonal (res / sqrt 2) nearer than its centre; the
+    robot's centre lies up to as far from the centre of the cell the planner and the follower
+    check. Both radii are therefore applied one cell diagonal (res * sqrt 2) further out, so
+    that a robot whose cell is outside the inscribed band keeps its body off the obstacle
+    itself, from every direction (with half a cell, the burger grazed box corners).
     """
-    margin = 0.5 * resolution
+    margin = resolution * math.sqrt(2.0)
     return _native.inflate(occupancy, resolution, settings.inscribed_radius_m + margin,
                            settings.inflation_radius_m + margin, settings.cost_scaling_factor,
                            occupied_threshold=settings.occupied_threshold,
