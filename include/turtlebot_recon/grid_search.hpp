@@ -362,8 +362,11 @@ class GridSearch {
 
 // Line-of-sight shortcut of a grid path (seed 001's refinePath, seed 003's two-pointer
 // shortcut). From waypoint i, keep the farthest later index j whose Bresenham line i -> j
-// stays on cells with cost < lethal_cost and <= the highest cost of the path cells i..j (so
-// a shortcut never runs closer to obstacles than the path already did); continue from j.
+// stays, after its first cell, on cells with cost < lethal_cost and <= the highest cost of the
+// path cells i+1..j (so a shortcut never runs closer to obstacles than the path already did);
+// continue from j. Cell i itself is left out of both: a path that starts next to a wall (the
+// robot stands there) would otherwise license a line along the wall at that cost, where the
+// path itself leaves the wall at once.
 // Unknown cells (255) never lie on a shortcut. Paths of 0-2 cells come back unchanged.
 // Throws std::invalid_argument if a path cell is off the grid.
 inline std::vector<Cell> shortcut_path(const std::vector<Cell>& path, const std::uint8_t* cost,
@@ -384,8 +387,8 @@ inline std::vector<Cell> shortcut_path(const std::vector<Cell>& path, const std:
   std::vector<int> ceiling(n);  // ceiling[j]: highest cost a line i -> j may cross
   int i = 0;
   while (i < n - 1) {
-    // 1. Highest cost of the original path cells i..j, for every j > i.
-    int highest = cost_at(path[i]);
+    // 1. Highest cost of the original path cells i+1..j, for every j > i.
+    int highest = 0;
     for (int j = i + 1; j < n; ++j) {
       highest = std::max(highest, cost_at(path[j]));
       ceiling[j] = std::min(highest, lethal_cost - 1);
@@ -395,8 +398,10 @@ inline std::vector<Cell> shortcut_path(const std::vector<Cell>& path, const std:
     int j = n - 1;
     for (; j > i + 1; --j) {
       const int limit = ceiling[j];
-      const bool clear = bresenham_line(path[i].row, path[i].col, path[j].row, path[j].col,
-                                        [&](int r, int c) { return cost_at(Cell{r, c}) <= limit; });
+      const Cell from = path[i];
+      const bool clear = bresenham_line(from.row, from.col, path[j].row, path[j].col, [&](int r, int c) {
+        return (r == from.row && c == from.col) || cost_at(Cell{r, c}) <= limit;
+      });
       if (clear) break;
     }
     // 3. Keep j and continue from it.

@@ -500,15 +500,16 @@ def test_nearest_accessible_matches_brute_force():
 # ---------------------------------------------------------------- shortcut
 
 def assert_valid_shortcut(short, path, cost, lethal_cost=253):
-    """Kept points are path points in order (first and last included); every segment stays on
-    cells below lethal_cost and no costlier than the path between its ends."""
+    """Kept points are path points in order (first and last included); every segment stays,
+    after its first cell, on cells below lethal_cost and no costlier than the path after its
+    first cell up to its end."""
     index = {tuple(p): i for i, p in enumerate(path.tolist())}
     assert tuple(short[0]) == tuple(path[0]) and tuple(short[-1]) == tuple(path[-1])
     kept = [index[tuple(p)] for p in short.tolist()]
     assert kept == sorted(kept) and len(set(kept)) == len(kept)
     for a, b in zip(kept[:-1], kept[1:]):
-        ceiling = max(int(cost[tuple(p)]) for p in path[a:b + 1].tolist())
-        for cell in bresenham(tuple(path[a]), tuple(path[b])):
+        ceiling = max(int(cost[tuple(p)]) for p in path[a + 1:b + 1].tolist())
+        for cell in bresenham(tuple(path[a]), tuple(path[b]))[1:]:
             assert cost[cell] < lethal_cost, f"segment {a}->{b} crosses {cell}"
             assert cost[cell] <= ceiling, f"segment {a}->{b} runs closer to obstacles at {cell}"
 
@@ -543,6 +544,20 @@ def test_shortcut_never_runs_closer_to_obstacles_than_the_path():
     short = _native.shortcut(path, cost)
     assert len(short) > 2
     assert_valid_shortcut(short, path, cost)
+
+
+def test_shortcut_from_a_start_beside_a_wall_leaves_the_wall_as_the_path_does():
+    # The robot stands in a wall's band (column 0, cost 220); the path steps away from it at
+    # once (column 1, 150; then column 2, 0) and runs up column 2. The start cell's cost does
+    # not license a line along the wall: no cell after the first may cost more than 150.
+    cost = np.zeros((12, 6), np.uint8)
+    cost[:, 0], cost[:, 1] = 220, 150
+    path = np.array([[0, 0], [1, 1]] + [[r, 2] for r in range(2, 12)], np.int32)
+    short = _native.shortcut(path, cost)
+    assert_valid_shortcut(short, path, cost)
+    assert short.tolist() == [[0, 0], [4, 2], [11, 2]]      # (0, 0) -> (4, 2) crosses column 1 only
+    # (with the start's 220 as the ceiling, (0, 0) -> (11, 2) would run up columns 0 and 1)
+    assert any(cost[cell] == 220 for cell in bresenham((0, 0), (11, 2))[1:])
 
 
 @pytest.mark.parametrize("seed", range(10))
