@@ -45,6 +45,8 @@ def test_unknown_and_bad_parameters():
         from_dict(SimSettings, {"rtf": "fast"}, "src")
     with pytest.raises(ConfigError, match="src/physics_hz: must be >= 100"):
         from_dict(SimSettings, {"physics_hz": 50.0}, "src")
+    with pytest.raises(ConfigError, match="src/clock_rate_hz: must be <= physics_hz"):
+        from_dict(SimSettings, {"clock_rate_hz": 200.0}, "src")
     warnings = []
     s = from_params(SimSettings, {"rtf": 3, "colour": "red"}, "/sim_bridge", warnings.append)
     assert s.rtf == 3.0 and len(warnings) == 1 and "colour" in warnings[0]

@@ -125,3 +125,14 @@ def test_an_added_box_stops_the_robot_is_scanned_and_refuses_to_overlap_it(room_
     with pytest.raises(ValueError, match="thinner"):
         sim.add_box(3.0, 0.5, 3.0, 1.0)
     assert sim.world.is_free(sim.pose[0], 1.5)   # the refused boxes changed nothing
+
+
+def test_sensor_and_clock_schedules(room_world, make_sim):
+    """step() names what is due: the burger's scan at 5 Hz, odometry at 30 Hz (every 3rd 10 ms
+    step), IMU at 50 Hz, ground truth at 10 Hz, /clock at clock_rate_hz (25 Hz: every 4th)."""
+    sim = make_sim(room_world, clock_rate_hz=25.0)
+    counts = {}
+    for _ in range(100):                                   # 1 s of sim time
+        for name in sim.step():
+            counts[name] = counts.get(name, 0) + 1
+    assert counts == {"scan": 5, "odom": 33, "imu": 50, "ground_truth": 10, "clock": 25}

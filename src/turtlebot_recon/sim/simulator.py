@@ -58,11 +58,14 @@ class SimSettings:
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
     ground_truth_rate_hz: float = 10.0
+    clock_rate_hz: float = 50.0          # /clock (per sim s), at most physics_hz: every node with
+                                         # use_sim_time handles each message
     seed: int = 0
 
     def validate(self, src: str) -> None:
-        positive(src, self, "physics_hz", "cmd_timeout_s", "ground_truth_rate_hz")
+        positive(src, self, "physics_hz", "cmd_timeout_s", "ground_truth_rate_hz", "clock_rate_hz")
         require(self.physics_hz >= 100.0, src, "physics_hz", "must be >= 100 Hz")
+        require(self.clock_rate_hz <= self.physics_hz, src, "clock_rate_hz", "must be <= physics_hz")
         require(self.cmd_sync_age_s >= 0.0, src, "cmd_sync_age_s", "must be >= 0 (0 = never wait)")
         require(self.cmd_sync_wait_s >= 0.0, src, "cmd_sync_wait_s", "must be >= 0")
         require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
@@ -137,7 +140,7 @@ class Simulator:
         angles = lid.angle_min_rad + lid.angle_increment_rad * np.arange(lid.beams)
         self._beam_dirs = np.stack([np.cos(angles), np.sin(angles)], axis=1)
         self._periods = {"scan": lid.rate_hz, "odom": robot.odom_rate_hz, "imu": robot.imu_rate_hz,
-                         "ground_truth": settings.ground_truth_rate_hz}
+                         "ground_truth": settings.ground_truth_rate_hz, "clock": settings.clock_rate_hz}
         if self.camera_on:
             self._periods["camera"] = settings.camera_rate_hz
         self._periods = {k: max(1, round(settings.physics_hz / hz)) for k, hz in self._periods.items()}
