@@ -83,7 +83,8 @@ class OccupancyGrid {
   // Ray-casts every beam from the sensor to its end point: the end cell of a valid return is
   // a hit; the cells the beam passes through before it (the sensor cell included, every
   // cell the segment touches: grid_traversal.hpp) are crossed, and so are those of a clearing
-  // ray (no return, capped), which leaves its end cell alone. Updates go
+  // ray (no return, capped) up to its end cell or the first cell believed occupied (a dropout
+  // reads as no return), which it leaves alone. Updates go
   // by cell, not by beam (OctoMap's insertPointCloud rule): within one scan every cell is
   // updated at most once, one hit for a cell that is the hit of any valid beam (even if
   // other beams cross it: occupied wins), one miss for every other crossed cell however many

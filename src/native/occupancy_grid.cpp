@@ -169,8 +169,11 @@ inline void OccupancyGrid::update(float& l, float delta) const {
 // The beam from the sensor point (x0, y0) in cell `from` to its end point, cell by cell through
 // every cell it passes (grid_traversal.hpp): a miss on every cell before the end cell (the
 // sensor cell included) that this scan has not updated yet (a hit cell, or one an earlier ray
-// crossed), stamping it. The end cell is left alone (its hit, if any, is done). Walks one
-// offset into the log-odds and stamp buffers (a row step is +-cols_ cells).
+// crossed), stamping it. The end cell is left alone (its hit, if any, is done). A clearing
+// ray (no return, capped) stops at the first cell the map believes occupied (log-odds > 0,
+// this scan's hits included): a no-return reading is also what a dropout gives, and a dropout
+// at a wall must not clear the unknown space behind it. Walks one offset into the log-odds
+// and stamp buffers (a row step is +-cols_ cells).
 void OccupancyGrid::trace_misses(const Cell& from, double x0, double y0, const Ray& ray,
                                  std::uint32_t stamp) {
   float* const logodds = logodds_.data();
@@ -178,6 +181,7 @@ void OccupancyGrid::trace_misses(const Cell& from, double x0, double y0, const R
   const auto start = static_cast<std::ptrdiff_t>(index(from));
   traverse_segment(start, x0, y0, ray.x, ray.y, ray.end.row - from.row, ray.end.col - from.col,
                    std::ptrdiff_t{cols_}, std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
+                   if (!ray.hit && logodds[i] > 0.0f) return false;  // see below
                    if (stamps[i] != stamp) {
                      stamps[i] = stamp;
                      update(logodds[i], l_miss_);

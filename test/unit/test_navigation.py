@@ -89,3 +89,22 @@ def test_cancel_and_bad_goals(nav):
     assert nav.status == "idle" and nav.step(0.0, (1.0, 1.0, 0.0), (0, 0)) == (0.0, 0.0)
     nav.set_goal(float("nan"), 1.0)
     assert nav.status == "failed" and "not finite" in nav.reason
+
+
+def test_blocked_counts_once_per_map(nav, monkeypatch):
+    """The map comes at ~1 Hz, the controller at 10 Hz: replans on one map meet the same
+    obstacle (maybe only a stale unknown cell ahead). The goal fails when the follower reports
+    blocked on more than max_blocked_replans (3) maps in a row, not after 4 control periods."""
+    from turtlebot_recon.control import ControlOutput
+    monkeypatch.setattr(nav.controller, "compute",
+                        lambda inp: ControlOutput(0.0, 0.0, "blocked", detail="unknown cell ahead"))
+    nav.set_goal(3.0, 2.0)
+    t = 0.0
+    for maps in range(1, 5):
+        for _ in range(10):                       # 1 s of control on this map
+            assert nav.step(t, (1.0, 1.0, 0.0), (0.0, 0.0)) == (0.0, 0.0)
+            t += 0.1
+        if maps < 4:
+            assert nav.status == "active", f"failed on map {maps}: {nav.reason}"
+            nav.update_map(room(), RES, (0.0, 0.0))
+    assert nav.status == "failed" and "blocked on 4 maps in a row" in nav.reason and "unknown cell ahead" in nav.reason

@@ -78,15 +78,17 @@ class Reference:
             a = syaw + angle_min + i * angle_inc
             x, y = sx + reach * math.cos(a), sy + reach * math.sin(a)
             rays.append(((x - self.ox) / self.res, (y - self.oy) / self.res, hit))
-        hits, crossed = set(), set()
-        for x, y, hit in rays:
-            crossed.update(grid_traversal(*sensor, x, y, include_end=False))
-            if hit:
-                hits.add((math.floor(y), math.floor(x)))
+        hits = {(math.floor(y), math.floor(x)) for x, y, hit in rays if hit}
         for cell in hits:                 # one hit each, even if some ray crosses it
             self.update(cell, self.l_hit)
-        for cell in crossed - hits:       # one miss each, however many rays cross it
-            self.update(cell, self.l_miss)
+        updated = set(hits)
+        for x, y, hit in rays:            # in beam order: a clearing ray ends at an occupied cell
+            for cell in grid_traversal(*sensor, x, y, include_end=False):
+                if not hit and self.cells.get(cell, 0.0) > 0.0:
+                    break
+                if cell not in updated:   # one miss each, however many rays cross it
+                    updated.add(cell)
+                    self.update(cell, self.l_miss)
         return stats
 
     def as_array(self, grid):
@@ -315,8 +317,6 @@ def test_a_cell_crossed_by_many_beams_gets_one_miss_per_scan():
 @pytest.mark.parametrize("ranges, kw, misses", [
     ([0.5, 1.0], {}, range(56, 60)),                               # a valid beam crosses it
     ([1.0, 0.5], {}, range(56, 60)),                               # beam order does not matter
-    ([0.5, INF], dict(no_return_clear_m=1.0), range(56, 60)),      # a no-return clearing ray
-    ([3.0, 0.5], dict(range_cap_m=2.0), range(56, 70)),            # a capped clearing ray
 ])
 def test_occupied_wins_over_a_ray_crossing_a_hit_cell(ranges, kw, misses):
     grid = OccupancyGrid(0.1)
@@ -327,14 +327,35 @@ def test_occupied_wins_over_a_ray_crossing_a_hit_cell(ranges, kw, misses):
     assert cells[(50, 55)] == pytest.approx(HIT, abs=1e-6)
     for c in list(range(50, 55)) + list(misses):                   # crossed: one miss each
         assert cells[(50, c)] == pytest.approx(MISS, abs=1e-6)
-    clearing = kw != {}
     end = misses[-1] + 1                                           # the other ray's end cell
-    assert sorted(cells) == [(50, c) for c in range(50, end + (0 if clearing else 1))]
-    if not clearing:
-        assert cells[(50, end)] == pytest.approx(HIT, abs=1e-6)
+    assert sorted(cells) == [(50, c) for c in range(50, end + 1)]
+    assert cells[(50, end)] == pytest.approx(HIT, abs=1e-6)
     # A second, identical scan: 2 * 0.847298 = 1.694596 (per beam: 2 * 0.441833 = 0.883666).
     scan(grid, ranges, inc=0.0, **kw)
     assert grid.logodds()[50, 55] == pytest.approx(2 * HIT, abs=1e-5)
+
+
+@pytest.mark.parametrize("ranges, kw", [
+    ([0.5, INF], dict(no_return_clear_m=1.0)),                     # a no-return clearing ray
+    ([3.0, 0.5], dict(range_cap_m=2.0)),                           # a capped clearing ray
+])
+def test_a_clearing_ray_stops_at_an_occupied_cell(ranges, kw):
+    """No return is also what a dropout reads: a clearing ray ends at the first cell the map
+    believes occupied (this scan's hit at column 55 here), leaving what lies behind unknown."""
+    grid = OccupancyGrid(0.1)
+    scan(grid, ranges, inc=0.0, **kw)
+    cells = known_cells(grid)
+    assert sorted(cells) == [(50, c) for c in range(50, 56)]
+    assert cells[(50, 55)] == pytest.approx(HIT, abs=1e-6)
+    # An earlier scan's wall stops it too; with the wall gone from the beam it clears its reach.
+    grid.clear()
+    scan(grid, [0.5])                                              # column 55: occupied
+    scan(grid, [INF], no_return_clear_m=1.0)
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 56)]
+    grid.clear()
+    scan(grid, [INF], no_return_clear_m=1.0)                       # 1.0 m: columns 50..59
+    assert sorted(known_cells(grid)) == [(50, c) for c in range(50, 60)]
+    assert all(v == pytest.approx(MISS, abs=1e-6) for v in known_cells(grid).values())
 
 
 def test_a_hit_in_the_sensor_cell_is_not_cleared_by_the_other_rays():

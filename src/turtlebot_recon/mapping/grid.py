@@ -25,7 +25,7 @@ class GridSettings:
     p_min: float = 0.12                 # clamp: a cell never gets surer than this of free ...
     p_max: float = 0.97                 # ... nor of occupied, so the map can change its mind
     grow_margin_m: float = 2.0          # extra room added on each side a scan leaves the grid
-    no_return_clear_m: float = 0.0      # clear this far along beams with no return (0 = don't)
+    no_return_clear_m: float = 3.5      # clear this far along beams with no return (0 = don't)
     range_cap_m: float = 0.0            # returns beyond this only clear up to it (seed 001: 2.0; 0 = no cap)
     visit_min_speed_mps: float = 0.05   # the visit map counts a cell only above this speed
     bumper_cells: int = 5               # cells marked occupied per bumper press (seed 001)

@@ -27,7 +27,8 @@ class NavigationSettings:
     base_frame: str = "base_footprint"
     controller_rate_hz: float = 10.0     # control loop (sim time)
     replan_period_s: float = 2.0         # replan at least this often while following
-    max_blocked_replans: int = 3         # the controller reports blocked this often in a row: fail
+    max_blocked_replans: int = 3         # the controller reports blocked on this many maps in a row
+                                         # (one report per map counts): fail
     snap_radius_m: float = 0.5           # a start/goal in inscribed cost moves to the nearest free cell within this
     # the navigator drives to a given goal: no visit penalty (the explorer weighs visits)
     planner: PlannerSettings = field(default_factory=lambda: PlannerSettings(visit_sensitivity=0.0))
@@ -75,6 +76,8 @@ class Navigation:
         self._planned_at = -math.inf
         self._need_plan = False
         self._blocked = 0
+        self._map_seq = 0                             # maps received; blocked counts once per map
+        self._blocked_map_seq = -1
         self.last_output = None
 
     # ------------------------------------------------------------------ inputs
@@ -84,7 +87,7 @@ class Navigation:
             return
         self.goal = (x, y, yaw)
         self.status, self.reason = "active", ""
-        self._need_plan, self._blocked = True, 0
+        self._need_plan, self._blocked, self._blocked_map_seq = True, 0, -1
         self.controller.reset()
 
     def fail(self, reason: str) -> None:
@@ -99,6 +102,7 @@ class Navigation:
                    visits: Optional[np.ndarray] = None) -> None:
         costmap = make_costmap(occupancy, resolution, self.costmap_settings)
         self.map = MapView(occupancy, costmap, resolution, tuple(origin), visits)
+        self._map_seq += 1
         if self.status == "active" and len(self.dense_xy):
             cells = np.array([self.map.cell(x, y) for x, y in self.dense_xy])
             ok = ((cells >= 0) & (cells < costmap.shape)).all(axis=1)
@@ -121,15 +125,20 @@ class Navigation:
             self._finish("succeeded", "arrived")
             return 0.0, 0.0
         if out.status in ("blocked", "no_path"):
-            self._blocked += 1
+            # A replan on the same map meets the same obstacle: the map may be stale (it comes
+            # at ~1 Hz, the controller runs at 10 Hz; the cell ahead may be unknown only
+            # because the last map predates the robot's arrival). Hold and count once per map.
+            if self._blocked_map_seq != self._map_seq:
+                self._blocked_map_seq = self._map_seq
+                self._blocked += 1
             if self._blocked > self.s.max_blocked_replans:
-                self._finish("failed", f"blocked {self._blocked} times in a row near "
+                self._finish("failed", f"blocked on {self._blocked} maps in a row near "
                                        f"({pose[0]:.2f}, {pose[1]:.2f})"
                                        + (f": {out.detail}" if out.detail else ""))
             else:
                 self._need_plan = True
             return 0.0, 0.0
-        self._blocked = 0
+        self._blocked, self._blocked_map_seq = 0, -1
         return out.linear_mps, out.angular_radps
 
     def _snap(self, cell: tuple) -> Optional[tuple]:
