@@ -163,3 +163,14 @@ def test_plots_are_written(tmp_path):
     groups = bm.aggregate(runs)
     assert bm.plot_coverage_by_world(tmp_path / "cov.png", "maze", runs, ["recon", "nearest", "density"]).exists()
     assert bm.plot_time_bars(tmp_path / "bars.png", groups, ["house", "maze"], ["recon", "nearest", "density"]).exists()
+
+
+def test_distance_compares_with_the_baselines_that_reached_99():
+    """A baseline that gave up early drove less for less: it is left out of the distance ratio,
+    unless no baseline reached 99 % in that world."""
+    runs = [run("recon", "house", t99=300.0, dist=60.0), run("nearest", "house", t99=400.0, dist=40.0),
+            run("explore_lite", "house", t99=None, dist=10.0),
+            run("recon", "maze", t99=200.0, dist=20.0), run("nearest", "maze", t99=None, dist=10.0)]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["distance_ratio_vs_best_baseline_house"] == pytest.approx(60.0 / 40.0)
+    assert f["distance_ratio_vs_best_baseline_maze"] == pytest.approx(20.0 / 10.0)   # none did: all
