@@ -127,10 +127,12 @@ class Navigation:
         if out.status in ("blocked", "no_path"):
             # A replan on the same map meets the same obstacle: the map may be stale (it comes
             # at ~1 Hz, the controller runs at 10 Hz; the cell ahead may be unknown only
-            # because the last map predates the robot's arrival). Hold and count once per map.
-            if self._blocked_map_seq != self._map_seq:
-                self._blocked_map_seq = self._map_seq
-                self._blocked += 1
+            # because the last map predates the robot's arrival). Hold; count and replan once
+            # per map (the robot stands still, so a replan on the same map gives the same path).
+            if self._blocked_map_seq == self._map_seq:
+                return 0.0, 0.0
+            self._blocked_map_seq = self._map_seq
+            self._blocked += 1
             if self._blocked > self.s.max_blocked_replans:
                 self._finish("failed", f"blocked on {self._blocked} maps in a row near "
                                        f"({pose[0]:.2f}, {pose[1]:.2f})"
