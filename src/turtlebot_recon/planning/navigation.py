@@ -76,8 +76,7 @@ class Navigation:
         self._planned_at = -math.inf
         self._need_plan = False
         self._blocked = 0
-        self._map_seq = 0                             # maps received; blocked counts once per map
-        self._blocked_map_seq = -1
+        self._blocked_map: Optional[MapView] = None   # the map the last blocked report counted on
         self.last_output = None
 
     # ------------------------------------------------------------------ inputs
@@ -87,7 +86,7 @@ class Navigation:
             return
         self.goal = (x, y, yaw)
         self.status, self.reason = "active", ""
-        self._need_plan, self._blocked, self._blocked_map_seq = True, 0, -1
+        self._need_plan, self._blocked, self._blocked_map = True, 0, None
         self.controller.reset()
 
     def fail(self, reason: str) -> None:
@@ -102,7 +101,6 @@ class Navigation:
                    visits: Optional[np.ndarray] = None) -> None:
         costmap = make_costmap(occupancy, resolution, self.costmap_settings)
         self.map = MapView(occupancy, costmap, resolution, tuple(origin), visits)
-        self._map_seq += 1
         if self.status == "active" and len(self.dense_xy):
             cells = np.array([self.map.cell(x, y) for x, y in self.dense_xy])
             ok = ((cells >= 0) & (cells < costmap.shape)).all(axis=1)
@@ -129,9 +127,9 @@ class Navigation:
             # at ~1 Hz, the controller runs at 10 Hz; the cell ahead may be unknown only
             # because the last map predates the robot's arrival). Hold; count and replan once
             # per map (the robot stands still, so a replan on the same map gives the same path).
-            if self._blocked_map_seq == self._map_seq:
+            if self._blocked_map is self.map:
                 return 0.0, 0.0
-            self._blocked_map_seq = self._map_seq
+            self._blocked_map = self.map
             self._blocked += 1
             if self._blocked > self.s.max_blocked_replans:
                 self._finish("failed", f"blocked on {self._blocked} maps in a row near "
@@ -140,7 +138,7 @@ class Navigation:
             else:
                 self._need_plan = True
             return 0.0, 0.0
-        self._blocked, self._blocked_map_seq = 0, -1
+        self._blocked, self._blocked_map = 0, None
         return out.linear_mps, out.angular_radps
 
     def _snap(self, cell: tuple) -> Optional[tuple]:
