@@ -30,7 +30,7 @@ help:
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
-	@echo "                 output/bench/explore/ (STRATEGIES=recon,nearest WORLDS=house SEEDS=3 JOBS=2 ROBOT="
+	@echo "                 output/bench/explore/ (STRATEGIES=recon,nearest WORLDS=house SEEDS=3 JOBS=2 ROBOT= ROBOTS=maze=..."
 	@echo "                 BUDGET=sim s for all | BUDGETS=house=600,... RESUME=1 reuses finished runs)"
 
 $(APT_STAMP): tools/apt-packages.txt
@@ -81,14 +81,15 @@ bench-sim: build
 bench-map: build
 	$(ENV) python test/benchmarks/bench_map.py
 
-# The bench's own defaults (all six strategies, all six worlds, 3 seeds, waffle_pi, per-world
-# budgets) apply unless a variable is given; ROBOT and BUDGET only when set by the user.
+# The bench's own defaults (all six strategies, all six worlds, 3 seeds, waffle_pi but the
+# burger in the maze, per-world budgets) apply unless a variable is given; ROBOT and BUDGET only
+# when set by the user (ROBOTS=maze=...,house=... per world).
 bench-explore: build
 	$(ENV) python test/benchmarks/bench_explore.py $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(SEEDS),--seeds $(SEEDS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
-	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(RESUME),--resume)
+	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume)
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds
