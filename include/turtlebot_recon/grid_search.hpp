@@ -274,13 +274,29 @@ class GridSearch {
   }
 
   // Dijkstra: cost-to-come from start to every cell (+inf where unreachable or impassable).
-  void dijkstra(Cell start, float* cost_to_come) {
+  // With targets, the search stops once every target is settled (or nothing is left to
+  // settle): the cells settled by then hold their exact cost, all others +inf. Targets off the
+  // grid throw std::invalid_argument; impassable or unreachable ones just never settle.
+  void dijkstra(Cell start, float* cost_to_come, const std::vector<Cell>& targets = {}) {
     check_endpoint("start", start);
+    if (!targets.empty()) {
+      target_.assign(class_.size(), 0);
+      for (const Cell& t : targets) {
+        if (t.row < 0 || t.row >= rows_ || t.col < 0 || t.col >= cols_)
+          throw std::invalid_argument(fn_ + ": target " + to_string(t) + " is outside the " +
+                                      std::to_string(rows_) + " x " + std::to_string(cols_) + " grid");
+        std::uint8_t& mark = target_[index(t)];
+        targets_left_ += mark == 0;
+        mark = 1;
+      }
+    }
     search(index(start), -1, [](int, int) { return 0.0; });
+    constexpr float kInf = std::numeric_limits<float>::infinity();
     for (int r = 0; r < rows_; ++r) {
-      const double* g = &g_[index(Cell{r, 0})];
+      const size_t i0 = index(Cell{r, 0});
       float* out = cost_to_come + static_cast<size_t>(r) * cols_;
-      for (int c = 0; c < cols_; ++c) out[c] = static_cast<float>(g[c]);
+      for (int c = 0; c < cols_; ++c)
+        out[c] = class_[i0 + c] == kClosed ? static_cast<float>(g_[i0 + c]) : kInf;
     }
   }
 
@@ -321,8 +337,9 @@ class GridSearch {
       //    lower g and has been closed since (the open list drops most of them itself).
       if (class_[n] == kClosed) continue;
       class_[n] = kClosed;
-      // 3. Goal test: g(goal) is optimal once the goal is closed.
+      // 3. Goal test: g(goal) is optimal once the goal is closed; likewise the last target.
       if (n == goal) return true;
+      if (targets_left_ > 0 && target_[n] != 0 && --targets_left_ == 0) return true;
       // 4. Expand n: relax every neighbour b, g(b) = min(g(b), g(n) + L * factor(b)).
       const int r = n / stride_, c = n % stride_;
       const double g_n = g_[n];
@@ -358,6 +375,8 @@ class GridSearch {
   std::vector<std::int32_t> visits_;  // visit counts; empty without a visit penalty
   std::vector<double> g_;             // cost to come, +inf until reached
   std::unique_ptr<std::uint8_t[]> reached_by_;  // the move k by which g was reached
+  std::vector<std::uint8_t> target_;  // 1 at dijkstra's targets; empty without targets
+  int targets_left_ = 0;              // targets not settled yet
 };
 
 // Line-of-sight shortcut of a grid path (seed 001's refinePath, seed 003's two-pointer

@@ -105,16 +105,22 @@ py::tuple py_astar(const U8Grid& costmap, CellArg start, CellArg goal,
 py::array_t<float> py_dijkstra(const U8Grid& costmap, CellArg start,
                                const std::optional<I32Array>& visits, double visit_sensitivity,
                                double cost_weight, int unknown_cost, int lethal_cost,
-                               double resolution) {
+                               double resolution, const std::optional<I32Array>& targets) {
   const Shape s = grid_shape(costmap, "dijkstra", "costmap");
   const std::int32_t* v = visits_data(visits, s, "dijkstra");
+  std::vector<tp::Cell> target_cells;
+  if (targets) {
+    const std::int32_t* t = targets->data();
+    for (size_t i = 0, n = cell_count(*targets, "dijkstra", "targets"); i < n; ++i)
+      target_cells.push_back({t[2 * i], t[2 * i + 1]});
+  }
   const tp::CostModel model{resolution, visit_sensitivity, cost_weight, unknown_cost, lethal_cost};
   py::array_t<float> out({s.rows, s.cols});
   float* dst = out.mutable_data();
   {
     py::gil_scoped_release release;
     tp::GridSearch search(costmap.data(), v, s.rows, s.cols, model, "dijkstra");
-    search.dijkstra({start.first, start.second}, dst);
+    search.dijkstra({start.first, start.second}, dst, target_cells);
   }
   return out;
 }
@@ -182,9 +188,11 @@ void register_planning(py::module_& m) {
   m.def("dijkstra", &py_dijkstra, py::arg("costmap"), py::arg("start"),
         py::arg("visits") = py::none(), py::arg("visit_sensitivity") = 0.5,
         py::arg("cost_weight") = 1.0, py::arg("unknown_cost") = -1, py::arg("lethal_cost") = 253,
-        py::arg("resolution") = 0.05,
+        py::arg("resolution") = 0.05, py::arg("targets") = py::none(),
         "Cost-to-come (float32 (rows, cols), metres weighted as in astar) from start to every\n"
-        "cell; +inf where unreachable or impassable.");
+        "cell; +inf where unreachable or impassable. targets: an (n, 2) array of cells (None or\n"
+        "empty: every cell); the search then stops once all of them are settled, and only the cells settled by then\n"
+        "(every one cheaper than the dearest target) hold their cost, the rest +inf.");
   m.def("nearest_accessible", &py_nearest_accessible, py::arg("costmap"), py::arg("cell"),
         py::arg("max_cost") = 252, py::arg("max_radius_m") = 2.0, py::arg("resolution") = 0.05,
         "The known cell nearest to `cell` (Euclidean; ties to the smaller row, then column) with\n"

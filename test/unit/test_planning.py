@@ -388,6 +388,44 @@ def test_inscribed_cells_are_impassable_unless_lethal_cost_is_raised():
     assert len(path) == 5 and total == pytest.approx(0.20 + 0.05 * 253 / 252)
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_dijkstra_with_targets_settles_them_exactly_and_stops(seed):
+    rng = np.random.default_rng(300 + seed)
+    shape = tuple(int(n) for n in rng.integers(10, 40, 2))
+    cost = random_costmap(rng, shape)
+    cells = passable_cells(cost, -1, 253)
+    if len(cells) < 4:
+        pytest.skip("no free cells")
+    start = tuple(int(v) for v in cells[0])
+    full = _native.dijkstra(cost, start)
+    targets = cells[rng.choice(len(cells), 3, replace=False)].astype(np.int32)
+    part = _native.dijkstra(cost, start, targets=targets)
+    settled = np.isfinite(part)
+    # Every settled cell holds its exact cost, every target reachable at all is settled, and
+    # the search stopped at the dearest target: nothing dearer was settled.
+    np.testing.assert_array_equal(part[settled], full[settled])
+    reach = full[targets[:, 0], targets[:, 1]]
+    np.testing.assert_array_equal(part[targets[:, 0], targets[:, 1]], reach)
+    if np.isfinite(reach).all():
+        assert part[settled].max() <= reach.max()
+        assert settled.sum() <= np.isfinite(full).sum()
+    else:                                       # an unreachable target: the whole search
+        np.testing.assert_array_equal(part, full)
+
+
+def test_dijkstra_targets_stop_early_and_are_checked():
+    cost = np.zeros((50, 50), np.uint8)
+    part = _native.dijkstra(cost, (0, 0), targets=np.array([[2, 2]]))
+    assert part[2, 2] == pytest.approx(2 * math.sqrt(2) * RES, rel=1e-6)
+    assert np.isinf(part[49, 49]) and np.isfinite(part).sum() < 50
+    np.testing.assert_array_equal(_native.dijkstra(cost, (0, 0), targets=np.zeros((0, 2), np.int32)),
+                                  _native.dijkstra(cost, (0, 0)))
+    with pytest.raises(ValueError, match=r"dijkstra: target \(50, 0\) is outside the 50 x 50 grid"):
+        _native.dijkstra(cost, (0, 0), targets=[[1, 1], [50, 0]])
+    with pytest.raises(ValueError, match=r"targets must be an \(n, 2\) array"):
+        _native.dijkstra(cost, (0, 0), targets=[1, 2, 3])
+
+
 def test_no_corner_cutting():
     cost = np.zeros((2, 2), np.uint8)
     cost[0, 1] = LETHAL

@@ -511,7 +511,21 @@ def test_path_distance_matrix_follows_walls():
     assert D[0, 1] == pytest.approx(ctx.cost_to_come[50, 20])
     assert D[1, 2] == pytest.approx(dijkstra(ctx.costmap, (50, 20), resolution=RES)[10, 60])
     assert D[1, 2] > math.dist(cell_xy(50, 20), cell_xy(10, 60)) + 1.0     # around the wall
-    assert D[1, 2] == pytest.approx(D[2, 1], rel=1e-3)
+    assert D[1, 2] == D[2, 1]                                 # one run, mirrored
+
+
+def test_path_distance_matrix_matches_full_dijkstra_runs():
+    rng = np.random.default_rng(7)
+    occ = np.where(rng.random((60, 70)) < 0.08, OCC, 0).astype(np.int8)
+    occ[30, 5:65] = OCC
+    ctx = make_ctx(occ, (5, 5))
+    free = np.argwhere(np.isfinite(ctx.cost_to_come) & (ctx.costmap < 200))
+    goals = [tuple(int(v) for v in free[i]) for i in rng.choice(len(free), 8, replace=False)]
+    D = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come, goals, RES)
+    for i, g in enumerate(goals):
+        full = dijkstra(ctx.costmap, g, resolution=RES)
+        for j in range(i + 1, len(goals)):
+            assert D[i + 1, j + 1] == D[j + 1, i + 1] == pytest.approx(full[goals[j]], rel=1e-6)
 
 
 # ------------------------------------------------------------------------------- GoalBook
