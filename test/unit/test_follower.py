@@ -332,6 +332,20 @@ def test_unknown_space_collides_only_if_configured():
     assert follower().compute(inp).status == "blocked"
 
 
+def test_at_the_band_edge_facing_into_it_turns_toward_the_plan_first():
+    # inscribed cost from y = 0.05 up; the plan runs along its edge at y = 0.045 (a corner taken
+    # tight), the robot on it heads 0.6 rad into the band: every arc, down to a one-cell
+    # carrot, enters the band at its first sample. It turns in place (right) toward the plan
+    # instead of reporting "blocked"; once facing along it, it follows.
+    costmap = empty_costmap()
+    costmap[21:, :] = INSCRIBED                     # rows from y = -1 + 21 * 0.05 = 0.05
+    path = [(0.0, 0.045), (2.0, 0.045)]
+    out = follower().compute(make_input((0.0, 0.045, 0.6), path, costmap=costmap))
+    assert out.status == "rotating" and out.linear_mps == 0.0 and out.angular_radps < 0.0
+    out = follower().compute(make_input((0.0, 0.045, 0.0), path, costmap=costmap))
+    assert out.status == "following" and out.linear_mps > 0.0
+
+
 def test_on_lethal_blocked_in_the_inscribed_band_may_leave():
     costmap = with_band(empty_costmap(), -0.10, 0.10, INSCRIBED)      # robot at x = 0.01 inside
     costmap = with_band(costmap, -0.50, -0.10, LETHAL)

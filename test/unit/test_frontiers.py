@@ -257,6 +257,24 @@ def test_a_corridor_without_cheap_cells_still_gets_a_goal(burger_costmap_setting
     assert f.reachable and f.goal_cell[0] == 14 and 128 < costmap[f.goal_cell] < 253
 
 
+def test_a_corridor_goal_takes_its_centre_line_not_the_band_edge(burger_costmap_settings):
+    # Walls on rows 10 and 22 (free rows 11..21, 0.55 m): the centre row 16 is 0.3 m from the
+    # wall cells (cost 135), rows 15/17 cost 173, nothing <= max_cost 128. The corridor's end
+    # is ragged (rows 11..15 free to col 42, the rest to col 40), so the frontier's own middle
+    # lies off the centre line, near the top wall. The goal goes to the cheapest reachable
+    # cost near it, the centre row, where one wall cell more does not make it impassable.
+    occ = np.full((33, 60), UNKNOWN, np.int8)
+    occ[10, :43] = occ[22, :41] = WALL
+    occ[11:22, :41] = FREE
+    occ[11:16, 41:43] = FREE
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert costmap[16, 20] == 135 and (costmap[11:22, 20] >= 135).all()
+    [f] = [f for f in detect(occ, RES, (0.0, 0.0), costmap, (16, 5), FrontierSettings(max_cost=128))
+           if f.size >= 5]
+    assert f.reachable and f.goal_cell[0] == 16 and costmap[f.goal_cell] == 135
+    assert abs(f.goal_cell[1] - 40) <= 2          # at the frontier, not back down the corridor
+
+
 def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings):
     # In the gap room the nearest accessible cell to the representative (20, 14) is (19, 14).
     # Cut it off in the caller's field: the goal moves to the nearest accessible AND reachable

@@ -22,8 +22,10 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               horizon ends before it; if less than ``collision_stop_distance_m`` of the arc is
               free, steps 3-7 are tried again with L_d halved, down to one cell (a nearer
               carrot keeps to the collision-free plan where the arc to a far one cuts a corner
-              into the inflation); if even that is blocked: zero command, "blocked" (the
-              navigator replans). The robot standing on lethal cost is "blocked" too.
+              into the inflation); if even that is blocked, a robot off inscribed cost turns in
+              place toward that one-cell carrot (it stands at the band's edge facing into it),
+              and one already facing it stops: zero command, "blocked" (the navigator
+              replans). The robot standing on lethal cost is "blocked" too.
 
 Only the footprint's centre is checked, against the inflated costmap, whose inscribed radius
 is the footprint's circumscribed radius about base_footprint plus one cell diagonal
@@ -260,6 +262,13 @@ class PurePursuit:
                 return out
             blocked = blocked or why
             if lookahead_m <= grid.res:
+                # Every arc enters the band: the robot stands at its edge facing into it (a
+                # corner taken tight). Turning in place is safe on any cell below inscribed, so
+                # face the nearest carrot first; the next arc then runs along the plan.
+                near = why[0]
+                alpha = wrap_angle(math.atan2(near[1] - y, near[0] - x) - yaw)
+                if start_cost < INSCRIBED and abs(alpha) > cfg.yaw_goal_tolerance_rad:
+                    return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, near)
                 return ControlOutput(0.0, 0.0, BLOCKED, blocked[0], blocked[1])
             lookahead_m = max(0.5 * lookahead_m, grid.res)
 

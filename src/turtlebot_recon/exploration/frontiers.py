@@ -251,27 +251,34 @@ def _snap(costmap: np.ndarray, cost_to_come: np.ndarray, targets: Sequence[Cell]
     """(goal cell, reachable). For each target in turn (the extended point, then the
     representative one), the cell nearest to it by a path within snap_radius_m
     (_distance_from) that the robot can stand on and reach: a finite cost-to-come and a known
-    cost <= max_cost (if there is none for any target: any cost below inscribed), or unknown (255) where the caller's field crosses unknown space (a
+    cost <= max_cost (if there is none for any target: the cheapest cost the robot can reach
+    near any target), or unknown (255) where the caller's field crosses unknown space (a
     planner with unknown_cost >= 0, like Nav2's allow_unknown in seed 004). With none, an
     unreachable goal for the report: the nearest cell it could stand on, else the
     representative cell itself. Ties go to the smaller row, then column."""
     fallback: Optional[Cell] = None
     walks = [(target, *_distance_from(costmap, target, settings, resolution))
              for target in dict.fromkeys(targets)]   # unique, in order
-    # max_cost first; where no cell that cheap is near (a corridor barely wider than the
-    # robot has none), any cell the robot can pass: it turns in place safely on any of them
-    # (the inscribed radius is the circumscribed one).
-    for max_cost in dict.fromkeys((settings.max_cost, INSCRIBED - 1)):
-        for target, window, distance in walks:
+    near = [distance <= settings.snap_radius_m + 1e-9 for _, _, distance in walks]
+    reached = [np.isfinite(cost_to_come[window]) for _, window, _ in walks]
+    # max_cost first. Where no cell that cheap is near (a corridor barely wider than the robot
+    # has none), the cheapest cost the robot can reach near the target: the corridor's centre
+    # line, not the edge of the band along its wall, where one wall cell more in the next map
+    # makes the goal impassable. The robot turns in place safely on any passable cell (the
+    # inscribed radius is the circumscribed one).
+    cheapest = min((int(costmap[window][n & r].min(initial=INSCRIBED))
+                    for (_, window, _), n, r in zip(walks, near, reached)), default=INSCRIBED)
+    for max_cost in dict.fromkeys((settings.max_cost, min(cheapest, INSCRIBED - 1))):
+        for (target, window, distance), n, r in zip(walks, near, reached):
             cost = costmap[window]
-            near = distance <= settings.snap_radius_m + 1e-9
             standable = cost <= max_cost
-            reached = np.isfinite(cost_to_come[window])
-            goal = _nearest(distance, near & (standable | (cost == NO_INFORMATION)) & reached, window)
+            goal = _nearest(distance, n & (standable | (cost == NO_INFORMATION)) & r, window)
             if goal is not None:
                 return goal, True
-            if fallback is None:
-                fallback = _nearest(distance, near & standable, window)
+    for (target, window, distance), n in zip(walks, near):
+        fallback = _nearest(distance, n & (costmap[window] < INSCRIBED), window)
+        if fallback is not None:
+            break
     return (targets[-1] if fallback is None else fallback), False
 
 

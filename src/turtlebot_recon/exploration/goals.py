@@ -142,6 +142,17 @@ class GoalBook:
             return True
         return False
 
+    def obstructed(self, xy: Point, now_s: float) -> bool:
+        """An obstacle appeared at the goal ``xy`` (``reevaluate_reason`` "blocked"). The first
+        time at a place that is the map growing (seed 000 chooses again); if a goal was chosen
+        there before (attempts >= 2), it is a wall face that reads occupied from near and free
+        from afar (grazing beams), which would put a goal there again and again: a failure
+        (``failed``). True if that blacklisted it."""
+        if self.attempts(xy) >= 2:
+            return self.failed(xy, now_s)
+        self._clear_active(xy)
+        return False
+
     def succeeded(self, xy: Point, now_s: float) -> int:
         """Record a success at ``xy``; expire older blacklist entries within expire_radius_m
         (unless permanent_blacklist). Returns how many expired."""
