@@ -181,7 +181,7 @@ void OccupancyGrid::trace_misses(const Cell& from, double x0, double y0, const R
   const auto start = static_cast<std::ptrdiff_t>(index(from));
   traverse_segment(start, x0, y0, ray.x, ray.y, ray.end.row - from.row, ray.end.col - from.col,
                    std::ptrdiff_t{cols_}, std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
-                   if (!ray.hit && logodds[i] > 0.0f) return false;  // see below
+                   if (!ray.hit && logodds[i] > 0.0f) return false;  // a clearing ray: see above
                    if (stamps[i] != stamp) {
                      stamps[i] = stamp;
                      update(logodds[i], l_miss_);
