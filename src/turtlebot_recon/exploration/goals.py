@@ -117,6 +117,7 @@ class GoalBook:
         self._failures: List[Point] = []
         self._successes: List[Tuple[Point, float]] = []
         self._blacklist: List[BlacklistEntry] = []
+        self._blocked: List[Point] = []            # goals dropped as "blocked" (obstructed)
         self.active: Optional[ActiveGoal] = None
         self.watchdog = ProgressWatchdog(settings.progress_timeout_s, settings.progress_min_m)
 
@@ -142,13 +143,17 @@ class GoalBook:
             return True
         return False
 
-    def obstructed(self, xy: Point, now_s: float) -> bool:
-        """An obstacle appeared at the goal ``xy`` (``reevaluate_reason`` "blocked"). The first
-        time at a place that is the map growing (seed 000 chooses again); if a goal was chosen
-        there before (attempts >= 2), it is a wall face that reads occupied from near and free
-        from afar (grazing beams), which would put a goal there again and again: a failure
-        (``failed``). True if that blacklisted it."""
-        if self.attempts(xy) >= 2:
+    def obstructed(self, xy: Point, now_s: float, cell_m: float) -> bool:
+        """An obstacle appeared at the goal ``xy`` (``reevaluate_reason`` "blocked"). Usually
+        the map growing: the wall band firms up and the frontier's next goal lies a cell or
+        more further out (seed 000 chooses again). A goal blocked again on the same cell
+        (within ``cell_m``, the map's resolution) is a wall face that reads free from afar and
+        occupied from near (grazing beams), which would put a goal there again and again: a
+        failure (``failed``). True if that blacklisted it."""
+        xy = _xy(xy)
+        again = any(math.dist(xy, p) <= cell_m + 1e-9 for p in self._blocked)
+        self._blocked.append(xy)
+        if again:
             return self.failed(xy, now_s)
         self._clear_active(xy)
         return False
