@@ -17,7 +17,7 @@ import pytest
 from turtlebot_recon.config import ConfigError, from_dict, load_yaml
 from turtlebot_recon.exploration import tour
 from turtlebot_recon.exploration.frontiers import Frontier, cluster, find_frontier_cells
-from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings, ProgressWatchdog
+from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings, ProgressWatchdog, stands_for
 from turtlebot_recon.exploration.strategies import (STRATEGIES, Context, Density, ExploreLite,
                                                     GainDistanceHeading, Nearest, Recon, Sampled,
                                                     load_strategy, make_strategy)
@@ -566,6 +566,17 @@ def test_goal_book_an_obstacle_at_a_goal_blacklists_it_the_second_time_on_that_c
     book.start(dataclasses.replace(f, goal=again), ctx)
     assert book.obstructed(again, 3.0, 0.05) is True
     assert book.is_blacklisted(f.goal) and book.active is None
+
+
+def test_a_sent_goal_stands_for_a_choice_near_it_only_while_it_is_still_a_goal():
+    occ = np.zeros((20, 20), np.int8)
+    ctx = make_ctx(occ, (5, 5))
+    sent = ctx.cell_to_xy((10, 10))
+    assert stands_for(sent, ctx.cell_to_xy((10, 14)), 0.3, ctx)       # 0.2 m: on its way
+    assert not stands_for(sent, ctx.cell_to_xy((10, 17)), 0.3, ctx)   # 0.35 m: another goal
+    occ[10, 10] = 100                                                  # a wall cell appeared
+    blocked = make_ctx(occ, (5, 5))
+    assert not stands_for(sent, ctx.cell_to_xy((10, 14)), 0.3, blocked)
 
 
 def test_goal_book_success_expires_nearby_entries_unless_permanent():

@@ -262,6 +262,14 @@ class GoalBook:
             self.watchdog.reset()
 
 
+def stands_for(sent_xy: Point, choice_xy: Point, same_goal_m: float, ctx: "Context") -> bool:
+    """Whether the goal already sent to the navigator stands for the new choice: within
+    ``same_goal_m`` of it and still a goal the robot can stand on and reach. A goal just
+    dropped as blocked does not: kept, it is blocked again at the next cycle and counted twice."""
+    return (math.dist(sent_xy, choice_xy) <= same_goal_m
+            and ctx.goal_ok(ctx.xy_to_cell(sent_xy)))
+
+
 def _xy(p: Sequence[float]) -> Point:
     return (float(p[0]), float(p[1]))
 
