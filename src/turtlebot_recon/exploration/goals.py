@@ -151,7 +151,7 @@ class GoalBook:
         occupied from near (grazing beams), which would put a goal there again and again: a
         failure (``failed``). True if that blacklisted it."""
         xy = _xy(xy)
-        again = any(math.dist(xy, p) <= cell_m + 1e-9 for p in self._blocked)
+        again = _count_near(self._blocked, xy, cell_m) > 0
         self._blocked.append(xy)
         if again:
             return self.failed(xy, now_s)
