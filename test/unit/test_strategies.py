@@ -385,16 +385,18 @@ def test_recon_first_leg_by_hand_and_visits(corridor):
     assert Recon().choose([right, left], v, GoalBook()).id == 0    # the unvisited side
 
 
-def test_recon_skips_poor_and_exhausted_goals(corridor):
+def test_recon_takes_small_frontiers_on_the_way_and_skips_exhausted_goals(corridor):
     ctx, at = corridor
-    poor = at(80, gain=10)[0]                  # 10 cells = 0.025 m^2 < 0.1 m^2, 1 m ahead
-    rich = dataclasses.replace(at(200)[0], id=1)
-    assert Recon().choose([poor, rich], ctx, GoalBook()).id == 1
-    assert Recon().choose([poor], ctx, GoalBook()).id == 0     # nothing better: take it
+    poor = at(80, gain=10)[0]                  # 10 cells = 0.025 m^2, 1 m ahead
+    rich = dataclasses.replace(at(200)[0], id=1)   # 400 cells = 1 m^2, 7 m ahead
+    # poor first: 1.0 + 6.0 = 7.0 m of tour; rich first: 6.9 + 6.0 = 12.9 m. A small
+    # frontier is not kept for later (a dead end's last cells, a long way back at the end).
+    assert Recon().choose([poor, rich], ctx, GoalBook()).id == 0
     book = GoalBook()
-    book.succeeded(rich.goal, 1.0)
-    book.succeeded(rich.goal, 2.0)              # reached twice, frontier still there
-    assert Recon().choose([poor, rich], ctx, book).id == 0
+    book.succeeded(poor.goal, 1.0)
+    book.succeeded(poor.goal, 2.0)              # reached twice, frontier still there
+    assert Recon().choose([poor, rich], ctx, book).id == 1
+    assert Recon().choose([poor], ctx, book) is None
 
 
 # ----------------------------------------------------- every strategy: only valid goals

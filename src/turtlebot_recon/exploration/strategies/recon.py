@@ -30,7 +30,6 @@ class ReconSettings:
     visit_weight_m_per_visit: float = 0.5  # per pass already driven near the goal: a frontier
                                            # that survived passes is likely a sensor shadow
     visit_radius_m: float = 0.5            # "near the goal" for the visit count
-    min_gain_m2: float = 0.1               # smaller gains only when nothing larger is left
     max_arrivals: int = 2                  # goals reached this often nearby are not chosen again
     use_tour: bool = True                  # order all clusters as a tour (false: least first leg)
     tour_max_clusters: int = 20            # the cheapest first legs enter the tour (n Dijkstras)
@@ -40,7 +39,7 @@ class ReconSettings:
 
     def validate(self, src: str) -> None:
         for key in ("turn_weight_m_per_rad", "gain_weight_m_per_m2", "visit_weight_m_per_visit",
-                    "min_gain_m2", "hysteresis_m", "hysteresis_ratio"):
+                    "hysteresis_m", "hysteresis_ratio"):
             require(getattr(self, key) >= 0, src, key, "must be >= 0")
         positive(src, self, "visit_radius_m", "match_radius_m")
         require(isinstance(self.max_arrivals, int) and self.max_arrivals >= 1, src,
@@ -66,8 +65,10 @@ class Recon:
 
     Candidates: usable goals (reachable, affordable, not blacklisted) not yet reached
     max_arrivals times (a frontier that survived the visits cannot be cleared from there);
-    gains below min_gain_m2 only when nothing richer is left; the tour_max_clusters
-    cheapest first legs enter the tour.
+    the tour_max_clusters cheapest first legs enter the tour. Small gains are not set aside
+    for later: a small frontier is the end of a dead end or a corner, cheap to clear while
+    the robot is near and a long trip back at the end (keeping gains under 0.1 m^2 for last
+    cost 20 % of the time to 99 % in the maze).
     """
     name = "recon"
     Settings = ReconSettings
@@ -91,8 +92,6 @@ class Recon:
     def choose(self, frontiers: List[Frontier], ctx: Context, book: GoalBook) -> Optional[Frontier]:
         s = self.settings
         cands = [f for f in usable(frontiers, ctx, book) if book.successes(f.goal) < s.max_arrivals]
-        rich = [f for f in cands if f.gain * ctx.resolution ** 2 >= s.min_gain_m2]
-        cands = rich or cands
         if not cands:
             self.last_goal, self.last_tour = None, []
             return None
