@@ -66,9 +66,9 @@ class Recon:
     Candidates: usable goals (reachable, affordable, not blacklisted) not yet reached
     max_arrivals times (a frontier that survived the visits cannot be cleared from there);
     the tour_max_clusters cheapest first legs enter the tour. Small gains are not set aside
-    for later: a small frontier is the end of a dead end or a corner, cheap to clear while
-    the robot is near and a long trip back at the end (keeping gains under 0.1 m^2 for last
-    cost 20 % of the time to 99 % in the maze).
+    for later: a small frontier (a dead end's last cells, a corner) costs little while the
+    robot is near it and a long trip back at the end (keeping gains under 0.1 m^2 for last
+    cost about 20 % of the time to 99 % in the maze).
     """
     name = "recon"
     Settings = ReconSettings
