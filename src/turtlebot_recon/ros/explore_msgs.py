@@ -25,8 +25,10 @@ from .convert import stamp, yaw_to_quaternion
 
 def grid(m: OccupancyGrid) -> tuple:
     """(occupancy int8 (rows, cols), resolution m, (origin_x, origin_y) m) of a map message;
-    row 0 at the origin (the origin's rotation is assumed to be zero, as the mapper writes)."""
-    occ = np.asarray(m.data, dtype=np.int8).reshape(m.info.height, m.info.width)
+    row 0 at the origin (the origin's rotation is assumed to be zero, as the mapper writes).
+    Subscribe with ``convert.OccupancyGridNumpy`` (data arrives as an array); a plain
+    message's tuple works too, ~10 ms slower per 400k cells."""
+    occ = np.array(m.data, dtype=np.int8).reshape(m.info.height, m.info.width)   # a writable copy
     return occ, float(m.info.resolution), (m.info.origin.position.x, m.info.origin.position.y)
 
 
