@@ -31,7 +31,8 @@ help:
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
 	@echo "                 output/bench/explore/ (STRATEGIES=recon,nearest WORLDS=house SEEDS=3 JOBS=2 ROBOT= ROBOTS=maze=..."
-	@echo "                 BUDGET=sim s for all | BUDGETS=house=600,... RESUME=1 reuses finished runs)"
+	@echo "                 BUDGET=sim s for all | BUDGETS=house=600,... RESUME=1 reuses finished runs,"
+	@echo "                 REPORT=1 runs nothing: table and explore.json from the runs on disk)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -89,7 +90,7 @@ bench-explore: build
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(SEEDS),--seeds $(SEEDS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
-	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume)
+	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report)
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds

@@ -9,7 +9,9 @@ launch.log, run.json). Up to --jobs runs at a time. A run is "ok" when the evalu
 and wrote report.json; one that exceeds its wall-clock limit is stopped (SIGINT, then SIGKILL)
 and recorded as "timeout"; one where a node died or no report appeared, as "failed". Neither is
 hidden: the aggregation (turtlebot_recon.evaluation.benchmark) counts them as coverage 0 that
-never reached a milestone. --resume reuses runs whose run.json says ok.
+never reached a milestone. --resume reuses runs whose run.json says ok; --report runs nothing and
+summarises the runs of the plan found on disk (a sweep made in several sittings, e.g. a few
+strategies per world, each world's runs at one --jobs: compare within a world).
 
 Budgets (sim seconds) follow benchmark.budget_s of each world's free area (WORLD_BUDGETS for the
 maze) unless --budget (all worlds) or --budgets world=s,... is given; the robot is the waffle_pi
@@ -172,7 +174,7 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     else:         # the evaluator ended the run (if only just before the limit: a slow shutdown)
         status, reason = "ok", ""
     meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
-            "wall_limit_s": round(limit_s, 1), "budget_s": budget, "command": " ".join(cmd)}
+            "wall_limit_s": round(limit_s, 1), "budget_s": budget, "jobs": args.jobs, "command": " ".join(cmd)}
     (run_dir / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
     return meta
 
@@ -256,6 +258,9 @@ def main(argv=None):
     p.add_argument("--startup-s", type=float, default=120.0, help="wall seconds allowed for start-up and saving")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
     p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
+    p.add_argument("--report", action="store_true",
+                   help="run nothing: the table, plots and explore.json from the plan's runs already on disk "
+                        "(a sweep made in several sittings; budgets and jobs as each run recorded them)")
     args = p.parse_args(argv)
     strategies = csv_list(args.strategies)
     unknown = sorted(set(strategies) - set(bm.STRATEGIES))
@@ -277,7 +282,16 @@ def main(argv=None):
                   f"{args.startup_s + budgets[w] / args.min_rtf:.0f} s per run, {len(strategies) * args.seeds} runs")
         print(f"{len(plan)} runs, {args.jobs} at a time")
         return
-    runs = sweep(plan, budgets, args) if plan else []
+    jobs = args.jobs
+    if args.report:
+        plan = [(s, w, n) for s, w, n in plan if (OUT / w / s / f"seed{n}" / "run.json").exists()]
+        metas = [json.loads((OUT / w / s / f"seed{n}" / "run.json").read_text()) for s, w, n in plan]
+        budgets.update({w: m["budget_s"] for (_, w, _), m in zip(plan, metas)})
+        jobs = sorted({m.get("jobs") for m in metas}, key=str)
+        jobs = jobs[0] if len(jobs) == 1 else jobs
+        runs = [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
+    else:
+        runs = sweep(plan, budgets, args) if plan else []
 
     groups = bm.aggregate(runs)
     print("\nexploration benchmark: medians over seeds; 'never' = not reached by most seeds; "
@@ -291,7 +305,7 @@ def main(argv=None):
         bm.plot_coverage_by_world(OUT / f"coverage_{w}.png", w, runs, strategies)
     bm.plot_time_bars(OUT / "time_to_99.png", groups, worlds, strategies)
     figs = bm.figures(groups, runs)
-    figs.update({"seeds": args.seeds, "jobs": args.jobs})
+    figs.update({"seeds": args.seeds, "jobs": jobs})
     figs.update({f"budget_s_{w}": b for w, b in budgets.items()})
     figs.update({f"robot_{w}": r for w, r in args.robot_of.items()})
     write("explore", figs)
