@@ -40,7 +40,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import TOP, write  # noqa: E402
 
-from turtlebot_recon.evaluation import benchmark as bm  # noqa: E402
+from turtlebot_recon.evaluation import benchmark as bm, distance_until  # noqa: E402
 from turtlebot_recon.sim import WorldError, load_world  # noqa: E402
 
 SHARED = TOP.parent / "shared" / "worlds"
@@ -127,6 +127,10 @@ def load_run(strategy: str, world: str, seed: int, run_dir: Path) -> bm.Run:
     """A finished run from its directory (run.json written by this script, report.json, coverage.csv)."""
     meta = json.loads((run_dir / "run.json").read_text()) if (run_dir / "run.json").exists() else {}
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
+    if report and "distance_to_99_m" not in report and (run_dir / "path.csv").exists():
+        # a report from before the key (commit c10ef11 and older): the same from path.csv
+        path = np.loadtxt(run_dir / "path.csv", delimiter=",", skiprows=1, ndmin=2)
+        report["distance_to_99_m"] = distance_until(path, report.get("time_to_99_s"))
     status = meta.get("status", "ok" if report else "failed")
     return bm.Run(strategy, world, seed, status, report, load_series(run_dir), meta.get("reason", ""))
 
@@ -162,6 +166,10 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     wall_s = time.monotonic() - t0
     died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
+    if report and "distance_to_99_m" not in report and (run_dir / "path.csv").exists():
+        # a report from before the key (commit c10ef11 and older): the same from path.csv
+        path = np.loadtxt(run_dir / "path.csv", delimiter=",", skiprows=1, ndmin=2)
+        report["distance_to_99_m"] = distance_until(path, report.get("time_to_99_s"))
     has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
     if STOPPING.is_set() and not has_report:
         status, reason = "failed", "interrupted (Ctrl-C)"

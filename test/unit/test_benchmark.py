@@ -12,9 +12,13 @@ INF, NAN = math.inf, math.nan
 
 
 def run(strategy="recon", world="house", seed=0, status="ok", t90=100.0, t95=200.0, t99=None, cov=0.96,
-        dist=50.0, coll=0, wall=60.0, rtf=10.0, series=None):
+        dist=50.0, coll=0, wall=60.0, rtf=10.0, series=None, dist99=None):
+    """dist99 (distance to 99 %): dist - 10 m by default where 99 % is reached, else null."""
+    if dist99 is None and t99 is not None:
+        dist99 = dist - 10.0
     report = {"coverage_final": cov, "time_to_90_s": t90, "time_to_95_s": t95, "time_to_99_s": t99,
-              "distance_m": dist, "collisions": coll, "wall_time_s": wall, "rtf": rtf}
+              "distance_m": dist, "distance_to_99_m": dist99, "collisions": coll, "wall_time_s": wall,
+              "rtf": rtf}
     t = np.array([0.0, 100.0, 200.0]) if series is None else series[0]
     c = np.array([0.0, 0.9, cov]) if series is None else series[1]
     return bm.Run(strategy, world, seed, status, report, (t, c))
@@ -74,9 +78,9 @@ def test_summarise_medians_and_collisions():
 def sweep():
     """Two worlds, recon + two baselines, one seed each.
     house: recon t99 = 300, nearest 400, density 500 -> ratio 300 / 400 = 0.75;
-           distance recon 60, nearest 40, density 50 -> 60 / 40 = 1.5.
+           distance to 99 % recon 50, nearest 30, density 40 -> 50 / 30.
     maze:  recon never reaches 99 % (t95 = 100), nearest t99 = 200, density never (t95 = 80)
-           -> time99 ratio inf (null), time95 100 / 80 = 1.25; distance 20 / 25 = 0.8."""
+           -> time99 ratio inf (null), time95 100 / 80 = 1.25; distance99 inf / 15 (null)."""
     return [run("recon", "house", t99=300.0, dist=60.0, coll=1, rtf=9.0, cov=0.995),
             run("nearest", "house", t99=400.0, dist=40.0),
             run("density", "house", t99=500.0, dist=50.0),
@@ -97,8 +101,10 @@ def test_figures_headline_and_per_group_keys():
     assert f["default_time99_never_worlds"] == 1
     assert f["time95_ratio_vs_best_baseline_maze"] == pytest.approx(1.25)
     assert f["default_time95_ratio_vs_best_baseline"] == pytest.approx(1.25)   # worst of 1.0 (house 200/200), 1.25
-    assert f["distance_ratio_vs_best_baseline_house"] == pytest.approx(1.5)
-    assert f["default_distance_ratio_vs_best_baseline"] == pytest.approx(1.5)
+    assert f["distance99_ratio_vs_best_baseline_house"] == pytest.approx(50.0 / 30.0)
+    assert f["distance99_ratio_vs_best_baseline_maze"] is None       # inf: recon never got there
+    assert f["default_distance99_ratio_vs_best_baseline"] is None
+    assert f["distance99_m_recon_house"] == 50.0 and f["distance99_m_density_maze"] is None
     assert f["time99_s_recon_maze"] is None and f["time99_s_nearest_maze"] == 200.0
     assert f["coverage_final_recon_house"] == 0.995 and f["distance_m_density_maze"] == 30.0
     assert f["runs"] == 6 and f["failed_runs"] == 0
@@ -165,12 +171,27 @@ def test_plots_are_written(tmp_path):
     assert bm.plot_time_bars(tmp_path / "bars.png", groups, ["house", "maze"], ["recon", "nearest", "density"]).exists()
 
 
-def test_distance_compares_with_the_baselines_that_reached_99():
-    """A baseline that gave up early drove less for less: it is left out of the distance ratio,
-    unless no baseline reached 99 % in that world."""
-    runs = [run("recon", "house", t99=300.0, dist=60.0), run("nearest", "house", t99=400.0, dist=40.0),
-            run("explore_lite", "house", t99=None, dist=10.0),
-            run("recon", "maze", t99=200.0, dist=20.0), run("nearest", "maze", t99=None, dist=10.0)]
+def test_distance_is_compared_at_99_percent():
+    """The distance driven until 99 %: a baseline that gave up early (never reached 99 %) or
+    drove on after it is measured at the same point as recon, not by its whole run."""
+    runs = [run("recon", "house", t99=300.0, dist=60.0, dist99=45.0),
+            run("nearest", "house", t99=400.0, dist=40.0, dist99=38.0),
+            run("density", "house", t99=350.0, dist=90.0, dist99=30.0),        # drove on after 99 %
+            run("explore_lite", "house", t99=None, dist=10.0),                 # gave up early
+            run("recon", "maze", t99=200.0, dist=20.0), run("nearest", "maze", t99=None, dist=10.0),
+            run("recon", "arena", t99=200.0, dist=20.0, status="failed"), run("nearest", "arena", t99=100.0)]
     f = bm.figures(bm.aggregate(runs), runs)
-    assert f["distance_ratio_vs_best_baseline_house"] == pytest.approx(60.0 / 40.0)
-    assert f["distance_ratio_vs_best_baseline_maze"] == pytest.approx(20.0 / 10.0)   # none did: all
+    assert f["distance99_ratio_vs_best_baseline_house"] == pytest.approx(45.0 / 30.0)
+    assert f["distance99_ratio_vs_best_baseline_maze"] == 0.0       # only recon got there
+    assert f["distance99_ratio_vs_best_baseline_arena"] is None     # recon's run failed: never
+    assert f["distance99_m_explore_lite_house"] is None and f["distance_m_explore_lite_house"] == 10.0
+
+
+def test_distance_until_a_milestone_along_the_path():
+    from turtlebot_recon.evaluation import distance_until
+    path = np.array([[-1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 3.0, 4.0], [2.0, 3.0, 5.0], [3.0, 0.0, 5.0]])
+    assert distance_until(path, 1.0) == pytest.approx(5.0)
+    assert distance_until(path, 2.5) == pytest.approx(6.0)          # points after t are not counted
+    assert distance_until(path, 10.0) == pytest.approx(9.0)
+    assert distance_until(path, None) is None                        # never reached
+    assert distance_until(np.zeros((0, 3)), 5.0) == 0.0

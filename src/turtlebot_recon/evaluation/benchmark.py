@@ -11,8 +11,9 @@ Conventions (the docstring of each function repeats the one it uses):
   both middle seeds), and "the best baseline" is the smallest finite median. JSON has no inf:
   a never-reached median is written null.
 - **Failed runs** (crashed, wall-clock timeout, or no report) are never dropped silently:
-  they count as coverage 0 and as never reaching any milestone, and are counted per group;
-  distance, collisions, wall time and RTF are taken from the runs that finished (``ok``).
+  they count as coverage 0 and as never reaching any milestone (in time or in distance driven
+  to it), and are counted per group; the whole run's distance, collisions, wall time and RTF
+  are taken from the runs that finished (``ok``).
 - **Ratios** a / b of two medians (e.g. recon's time to 99 % over the best baseline's):
   finite / finite is the number; inf / finite = inf (recon never got there, a baseline did:
   the target fails); finite / inf = 0 (only recon got there); inf / inf and 0 / 0 are
@@ -68,6 +69,12 @@ class Run:
         t = self.report.get(f"time_to_{pct}_s") if self.ok else None
         return math.inf if t is None else float(t)
 
+    def distance_to(self, pct: int) -> float:
+        """Metres driven until ``pct`` % coverage (report key distance_to_<pct>_m); +inf if never
+        reached, the run failed or the report has no such key."""
+        d = self.report.get(f"distance_to_{pct}_m") if self.ok else None
+        return math.inf if d is None else float(d)
+
     def coverage(self) -> float:
         """Final coverage (fraction); 0 for a failed run."""
         c = self.report.get("coverage_final") if self.ok else None
@@ -102,7 +109,8 @@ class Group:
     time_s: dict                  # milestone % -> median sim seconds over seeds (inf: never)
     coverage_median: float        # fraction, failed runs as 0
     coverage_min: float
-    distance_m: float             # median over ok runs (nan if none)
+    distance_m: float             # whole run, median over ok runs (nan if none)
+    distance99_m: float           # driven until 99 % coverage, median over seeds (inf: never)
     collisions_sum: int           # over ok runs
     collisions_max: int
     wall_s: float                 # median over ok runs
@@ -121,7 +129,8 @@ def summarise(runs: list) -> Group:
     return Group(strategy=runs[0].strategy, world=runs[0].world, runs=len(runs), failed=len(runs) - len(ok),
                  time_s={p: median(r.time_to(p) for r in runs) for p in MILESTONES_PCT},
                  coverage_median=median(cov), coverage_min=min(cov),
-                 distance_m=ok_median("distance_m"), collisions_sum=sum(collisions),
+                 distance_m=ok_median("distance_m"), distance99_m=median(r.distance_to(99) for r in runs),
+                 collisions_sum=sum(collisions),
                  collisions_max=max(collisions, default=0), wall_s=ok_median("wall_time_s"), rtf=ok_median("rtf"))
 
 
@@ -133,13 +142,11 @@ def aggregate(runs: list) -> dict:
     return {k: summarise(v) for k, v in by_key.items()}
 
 
-def versus_best_baseline(groups: dict, world: str, value, default: str = DEFAULT_STRATEGY,
-                         among=lambda g: True) -> float:
+def versus_best_baseline(groups: dict, world: str, value, default: str = DEFAULT_STRATEGY) -> float:
     """ratio(value(default's group), min of value(g) over the other strategies' groups in
-    ``world`` for which ``among(g)`` holds) — smaller is better for the default. nan when either
-    side has no group."""
+    ``world``) — smaller is better for the default. nan when either side has no group."""
     mine = groups.get((default, world))
-    others = [value(g) for (s, w), g in groups.items() if w == world and s != default and among(g)]
+    others = [value(g) for (s, w), g in groups.items() if w == world and s != default]
     others = [v for v in others if not math.isnan(v)]
     if mine is None or not others:
         return math.nan
@@ -164,11 +171,13 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY) -> dict:
     Headline keys: default_min_coverage (min final coverage of the default's runs over all
     worlds and seeds, failed = 0), default_collisions (total over its ok runs),
     default_time99_ratio_vs_best_baseline (per world: default's median time to 99 % / the best
-    other strategy's, then the worst world), the same for 95 % and for distance (against the
-    strategies that reached 99 %, or all where none did),
+    other strategy's, then the worst world), the same for 95 % and for the distance driven
+    until 99 % (default_distance99_ratio_vs_best_baseline: a strategy that stops early or
+    drives on after 99 % is measured at the same point as the others),
     full_stack_rtf_lidar (median RTF of the default's ok runs), run and failure counts. Per
     strategy and world: time90_s_, time95_s_, time99_s_ (median; null = never), coverage_final_
-    (median), coverage_min_, distance_m_, collisions_, failed_runs_<strategy>_<world>.
+    (median), coverage_min_, distance_m_ (whole run), distance99_m_ (null = never),
+    collisions_, failed_runs_<strategy>_<world>.
     """
     worlds = list(dict.fromkeys(w for _, w in groups))
     mine = [r for r in runs if r.strategy == default]
@@ -183,26 +192,22 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY) -> dict:
         out[f"default_time{pct}_never_worlds"] = sum(
             math.isinf(groups[(default, w)].time_s[pct]) for w in worlds if (default, w) in groups)
         out.update({f"time{pct}_ratio_vs_best_baseline_{w}": v for w, v in per_world.items()})
-    # Distance against the baselines that did the job (median time to 99 % reached): one that
-    # gave up early drove less for less. With none of them there, against all.
-    finished = {w for (s, w), g in groups.items() if s != default and math.isfinite(g.time_s[99])}
-    per_world = {w: versus_best_baseline(groups, w, lambda g: g.distance_m, default,
-                                         (lambda g: math.isfinite(g.time_s[99])) if w in finished
-                                         else (lambda g: True)) for w in worlds}
-    out["default_distance_ratio_vs_best_baseline"] = worst(per_world.values())
-    out.update({f"distance_ratio_vs_best_baseline_{w}": v for w, v in per_world.items()})
+    per_world = {w: versus_best_baseline(groups, w, lambda g: g.distance99_m, default) for w in worlds}
+    out["default_distance99_ratio_vs_best_baseline"] = worst(per_world.values())
+    out.update({f"distance99_ratio_vs_best_baseline_{w}": v for w, v in per_world.items()})
     for (s, w), g in groups.items():
         for pct in MILESTONES_PCT:
             out[f"time{pct}_s_{s}_{w}"] = g.time_s[pct]
         out.update({f"coverage_final_{s}_{w}": g.coverage_median, f"coverage_min_{s}_{w}": g.coverage_min,
-                    f"distance_m_{s}_{w}": g.distance_m, f"collisions_{s}_{w}": g.collisions_sum,
+                    f"distance_m_{s}_{w}": g.distance_m, f"distance99_m_{s}_{w}": g.distance99_m,
+                    f"collisions_{s}_{w}": g.collisions_sum,
                     f"failed_runs_{s}_{w}": g.failed})
     return {k: _json(v) for k, v in out.items()}
 
 
 # ---------------------------------------------------------------------------------- table
 COLUMNS = ("world", "strategy", "ok/runs", "cov med %", "cov min %", "t90 s", "t95 s", "t99 s",
-           "dist m", "coll sum/max", "wall s", "rtf")
+           "dist m", "dist99 m", "coll sum/max", "wall s", "rtf")
 
 
 def fmt_time(t: float) -> str:
@@ -221,7 +226,8 @@ def table_rows(groups: dict) -> list:
     for g in sorted(groups.values(), key=lambda g: order[g.world]):     # stable: strategies keep their order
         rows.append([g.world, g.strategy, f"{g.runs - g.failed}/{g.runs}", _num(100 * g.coverage_median, ".1f"),
                      _num(100 * g.coverage_min, ".1f"), *(fmt_time(g.time_s[p]) for p in MILESTONES_PCT),
-                     _num(g.distance_m, ".1f"), f"{g.collisions_sum}/{g.collisions_max}", _num(g.wall_s, ".0f"),
+                     _num(g.distance_m, ".1f"), "never" if math.isinf(g.distance99_m) else _num(g.distance99_m, ".1f"),
+                     f"{g.collisions_sum}/{g.collisions_max}", _num(g.wall_s, ".0f"),
                      _num(g.rtf, ".1f")])
     return rows
 

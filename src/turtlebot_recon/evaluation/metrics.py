@@ -50,3 +50,14 @@ def map_precision(occupancy: np.ndarray, resolution: float, origin_xy: tuple, wo
         "cells_occupied": n_occ,
         "cells_free": n_free,
     }
+
+
+def distance_until(path: np.ndarray, t_s):
+    """Metres along a recorded path (rows of sim time s, x m, y m, in time order) up to sim
+    time ``t_s``: the distance driven until a coverage milestone (report.json's
+    distance_to_99_m). None when ``t_s`` is None (never reached)."""
+    if t_s is None:
+        return None
+    p = np.asarray(path, dtype=float).reshape(-1, 3)
+    p = p[p[:, 0] <= t_s]
+    return float(np.hypot(*np.diff(p[:, 1:], axis=0).T).sum()) if len(p) > 1 else 0.0
