@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import TOP, write  # noqa: E402
+from common import TOP, commit, write  # noqa: E402
 
 from turtlebot_recon.evaluation import benchmark as bm, distance_until  # noqa: E402
 from turtlebot_recon.sim import WorldError, load_world  # noqa: E402
@@ -182,7 +182,8 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     else:         # the evaluator ended the run (if only just before the limit: a slow shutdown)
         status, reason = "ok", ""
     meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
-            "wall_limit_s": round(limit_s, 1), "budget_s": budget, "jobs": args.jobs, "command": " ".join(cmd)}
+            "wall_limit_s": round(limit_s, 1), "budget_s": budget, "jobs": args.jobs, "commit": commit(),
+            "command": " ".join(cmd)}
     (run_dir / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
     return meta
 
@@ -297,6 +298,7 @@ def main(argv=None):
         budgets.update({w: m["budget_s"] for (_, w, _), m in zip(plan, metas)})
         jobs = sorted({m.get("jobs") for m in metas}, key=str)
         jobs = jobs[0] if len(jobs) == 1 else jobs
+        run_commits = sorted({m.get("commit", "unrecorded") for m in metas})
         runs = [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
     else:
         runs = sweep(plan, budgets, args) if plan else []
@@ -314,6 +316,8 @@ def main(argv=None):
     bm.plot_time_bars(OUT / "time_to_99.png", groups, worlds, strategies)
     figs = bm.figures(groups, runs)
     figs.update({"seeds": args.seeds, "jobs": jobs})
+    if args.report:                    # "commit" below is the checkout's now, not the runs'
+        figs["run_commits"] = run_commits
     figs.update({f"budget_s_{w}": b for w, b in budgets.items()})
     figs.update({f"robot_{w}": r for w, r in args.robot_of.items()})
     write("explore", figs)
