@@ -530,6 +530,31 @@ def test_path_distance_matrix_matches_full_dijkstra_runs():
             assert D[i + 1, j + 1] == D[j + 1, i + 1] == pytest.approx(full[goals[j]], rel=1e-6)
 
 
+def test_path_distance_matrix_on_coarser_cells():
+    occ = np.zeros((80, 80), dtype=np.int8)
+    occ[39:42, :70] = OCC              # 3 cells: the robot's inflated costmap has 7+ at any wall
+    ctx = make_ctx(occ, (30, 20))
+    goals = [(50, 20), (10, 60), (70, 70)]
+    fine = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come, goals, RES)
+    coarse = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come, goals, RES, cell_factor=2)
+    np.testing.assert_array_equal(coarse[0], fine[0])                 # the robot's row: its own field
+    np.testing.assert_allclose(coarse[1:, 1:], fine[1:, 1:], rtol=0.05, atol=2 * 2 * RES)
+    assert coarse[1, 2] > math.dist(cell_xy(50, 20), cell_xy(10, 60)) + 1.0   # still around the wall
+
+
+def test_coarsen_keeps_one_cell_doors_and_closes_thick_walls():
+    costmap = np.zeros((20, 20), dtype=np.uint8)
+    costmap[9, :] = 254
+    costmap[9, 7] = 0                                                 # a door one fine cell wide
+    door = tour.coarsen(costmap, 2)
+    assert door.shape == (10, 10) and np.isfinite(dijkstra(door, (0, 0), resolution=0.1)[9, 9])
+    costmap[8:11, :] = 254                                            # 3 cells thick, no door
+    assert np.isinf(dijkstra(tour.coarsen(costmap, 2), (0, 0), resolution=0.1)[9, 9])
+    odd = tour.coarsen(np.zeros((5, 7), dtype=np.uint8), 2)           # the edge: unknown padding
+    assert odd.shape == (3, 4) and odd.max() == 0
+    assert tour.coarsen(costmap, 1) is costmap
+
+
 # ------------------------------------------------------------------------------- GoalBook
 
 def test_goal_book_attempts_failures_and_blacklist_radius():

@@ -33,6 +33,8 @@ class ReconSettings:
     max_arrivals: int = 2                  # goals reached this often nearby are not chosen again
     use_tour: bool = True                  # order all clusters as a tour (false: least first leg)
     tour_max_clusters: int = 20            # the cheapest first legs enter the tour (n Dijkstras)
+    tour_cell_m: float = 0.1               # m, cells of the goal-to-goal Dijkstras: the map's
+                                           # coarsened by a whole factor (4x fewer cells at 0.05 m)
     hysteresis_m: float = 1.0              # keep the last goal unless the new tour is this much
     hysteresis_ratio: float = 0.1          # ... or this fraction shorter (the larger of the two)
     match_radius_m: float = 0.5            # the last goal "is still there" within this radius
@@ -41,7 +43,7 @@ class ReconSettings:
         for key in ("turn_weight_m_per_rad", "gain_weight_m_per_m2", "visit_weight_m_per_visit",
                     "hysteresis_m", "hysteresis_ratio"):
             require(getattr(self, key) >= 0, src, key, "must be >= 0")
-        positive(src, self, "visit_radius_m", "match_radius_m")
+        positive(src, self, "visit_radius_m", "match_radius_m", "tour_cell_m")
         require(isinstance(self.max_arrivals, int) and self.max_arrivals >= 1, src,
                 "max_arrivals", "must be an integer >= 1")
         require(isinstance(self.tour_max_clusters, int) and self.tour_max_clusters >= 1, src,
@@ -57,7 +59,7 @@ class Recon:
     path_cost from the Dijkstra field (not Euclidean: walls count); heading error to the
     goal's straight-line bearing; visits = most passes recorded within visit_radius_m of the
     goal; gain_area = gain cells * resolution^2. Between goals: Dijkstra path distances
-    (``tour.path_distance_matrix``). The clusters are ordered by nearest insertion + 2-opt
+    (``tour.path_distance_matrix``, on tour_cell_m cells). The clusters are ordered by nearest insertion + 2-opt
     from the robot (``tour.solve``) and the first is chosen, so the robot finishes one end
     of the building before crossing to the other. Hysteresis: the last goal is kept while
     the best tour that starts with it is at most max(hysteresis_m, hysteresis_ratio *
@@ -102,8 +104,9 @@ class Recon:
             order = list(range(len(cands)))
             pick = 0
         else:
+            factor = max(1, int(round(s.tour_cell_m / ctx.resolution)))
             D = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come,
-                                          [f.goal_cell for f in cands], ctx.resolution)
+                                          [f.goal_cell for f in cands], ctx.resolution, factor)
             D[0, 1:] = legs
             D = tour.prepare(D)
             best = tour.solve(D)
