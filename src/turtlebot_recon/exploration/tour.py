@@ -175,10 +175,11 @@ def path_distance_matrix(costmap: np.ndarray, start_field: np.ndarray, goal_cell
     comes from one ``dijkstra`` run out of goal i that stops once goals i+1..n are settled, and
     is mirrored into the column. Cost: n - 1 runs, each settling the cells nearer to goal i
     than the farthest later goal: in a half-explored office every known cell (~130k at
-    0.05 m, ~15 ms each), so keep n to a few tens and use ``cell_factor`` > 1 to run them on
-    the ``coarsen``-ed costmap (factor^2 fewer cells). ``dijkstra_kwargs`` (visits,
-    cost_weight, ...) go to every run; for a consistent matrix use the cost model that built
-    ``start_field``.
+    0.05 m, tens of ms each on a 2-core machine that also runs the simulation). Keep n to a
+    few tens, and with ``cell_factor`` > 1 the runs use the ``coarsen``-ed costmap
+    (factor^2 fewer cells; goal cells map to the coarse cells holding them).
+    ``dijkstra_kwargs`` (visits, cost_weight, ...) go to every run; for a consistent matrix
+    use the cost model that built ``start_field``.
     """
     n = len(goal_cells)
     cells = np.asarray(goal_cells, dtype=np.int32).reshape(n, 2)

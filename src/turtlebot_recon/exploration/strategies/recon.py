@@ -58,12 +58,12 @@ class Recon:
                 + visit_weight * visits_i - gain_weight * gain_area_i
     path_cost from the Dijkstra field (not Euclidean: walls count); heading error to the
     goal's straight-line bearing; visits = most passes recorded within visit_radius_m of the
-    goal; gain_area = gain cells * resolution^2. Between goals: Dijkstra path distances
-    (``tour.path_distance_matrix``, on tour_cell_m cells). The clusters are ordered by nearest insertion + 2-opt
-    from the robot (``tour.solve``) and the first is chosen, so the robot finishes one end
-    of the building before crossing to the other. Hysteresis: the last goal is kept while
-    the best tour that starts with it is at most max(hysteresis_m, hysteresis_ratio *
-    |best|) longer than the best tour.
+    goal; gain_area = gain cells * resolution^2. Between goals: Dijkstra path distances on
+    tour_cell_m cells (``tour.path_distance_matrix``). The clusters are ordered by nearest
+    insertion + 2-opt from the robot (``tour.solve``) and the first is chosen, so the robot
+    finishes one end of the building before crossing to the other. Hysteresis: the last goal
+    is kept while the best tour that starts with it is at most max(hysteresis_m,
+    hysteresis_ratio * |best|) longer than the best tour.
 
     Candidates: usable goals (reachable, affordable, not blacklisted) not yet reached
     max_arrivals times (a frontier that survived the visits cannot be cleared from there);
