@@ -34,7 +34,8 @@ class ReconSettings:
     use_tour: bool = True                  # order all clusters as a tour (false: least first leg)
     tour_max_clusters: int = 20            # the cheapest first legs enter the tour (n Dijkstras)
     tour_cell_m: float = 0.1               # m, cells of the goal-to-goal Dijkstras: the map's
-                                           # coarsened by a whole factor (4x fewer cells at 0.05 m)
+                                           # coarsened by round(this / resolution), at least 1
+                                           # (4x fewer cells at 0.05 m)
     hysteresis_m: float = 1.0              # keep the last goal unless the new tour is this much
     hysteresis_ratio: float = 0.1          # ... or this fraction shorter (the larger of the two)
     match_radius_m: float = 0.5            # the last goal "is still there" within this radius
