@@ -166,10 +166,6 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     wall_s = time.monotonic() - t0
     died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
-    if report and "distance_to_99_m" not in report and (run_dir / "path.csv").exists():
-        # a report from before the key (commit c10ef11 and older): the same from path.csv
-        path = np.loadtxt(run_dir / "path.csv", delimiter=",", skiprows=1, ndmin=2)
-        report["distance_to_99_m"] = distance_until(path, report.get("time_to_99_s"))
     has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
     if STOPPING.is_set() and not has_report:
         status, reason = "failed", "interrupted (Ctrl-C)"
