@@ -250,7 +250,7 @@ def sweep(plan: list, budgets: dict, args) -> list:
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--strategies", default=",".join(bm.STRATEGIES), help="comma-separated (default: all six)")
+    p.add_argument("--strategies", default=",".join(bm.STRATEGIES), help=f"comma-separated (default: all six; {bm.REFERENCE}: the omniscient reference)")
     p.add_argument("--worlds", default=",".join(SHIPPED + REAL),
                    help="comma-separated names in worlds/, depot/tb3_sandbox (../shared/worlds) or YAML paths")
     p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1 (default 3)")
@@ -268,9 +268,9 @@ def main(argv=None):
                         "(a sweep made in several sittings; budgets and jobs as each run recorded them)")
     args = p.parse_args(argv)
     strategies = csv_list(args.strategies)
-    unknown = sorted(set(strategies) - set(bm.STRATEGIES))
+    unknown = sorted(set(strategies) - set(bm.STRATEGIES) - {bm.REFERENCE})
     if unknown or not strategies:
-        p.error(f"unknown strategies {unknown}; choose from {', '.join(bm.STRATEGIES)}")
+        p.error(f"unknown strategies {unknown}; choose from {', '.join(bm.STRATEGIES)}, {bm.REFERENCE}")
     if args.seeds < 1 or args.jobs < 1 or args.min_rtf <= 0:
         p.error("--seeds, --jobs and --min-rtf must be positive")
     args.world_args = {Path(w).stem: world_arg(w) for w in csv_list(args.worlds)}   # name -> launch argument

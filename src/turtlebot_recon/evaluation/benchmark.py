@@ -28,6 +28,7 @@ import numpy as np
 
 STRATEGIES = ("nearest", "density", "gain_distance_heading", "sampled", "explore_lite", "recon")
 DEFAULT_STRATEGY = "recon"
+REFERENCE = "oracle"    # the omniscient route (evaluation.oracle): never a baseline
 MILESTONES_PCT = (90, 95, 99)
 
 # Default budget rule (sim seconds): base + per-m² of the world's free area, at least min,
@@ -143,10 +144,12 @@ def aggregate(runs: list) -> dict:
 
 
 def versus_best_baseline(groups: dict, world: str, value, default: str = DEFAULT_STRATEGY) -> float:
-    """ratio(value(default's group), min of value(g) over the other strategies' groups in
-    ``world``) — smaller is better for the default. nan when either side has no group."""
+    """ratio(value(default's group), min of value(g) over the baselines' groups in ``world``
+    (every strategy but ``default``, DEFAULT_STRATEGY and REFERENCE) — smaller is better for
+    the default. nan when either side has no group."""
     mine = groups.get((default, world))
-    others = [value(g) for (s, w), g in groups.items() if w == world and s != default]
+    others = [value(g) for (s, w), g in groups.items()
+              if w == world and s not in (default, DEFAULT_STRATEGY, REFERENCE)]
     others = [v for v in others if not math.isnan(v)]
     if mine is None or not others:
         return math.nan
@@ -174,7 +177,9 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY) -> dict:
     other strategy's, then the worst world), the same for 95 % and for the distance driven
     until 99 % (default_distance99_ratio_vs_best_baseline: a strategy that stops early or
     drives on after 99 % is measured at the same point as the others),
-    full_stack_rtf_lidar (median RTF of the default's ok runs), run and failure counts. Per
+    full_stack_rtf_lidar (median RTF of the default's ok runs), run and failure counts. Where
+    the REFERENCE (oracle) ran: oracle_time99_ratio_vs_best_baseline_<w> (what the omniscient
+    route reaches against the baselines) and default_time99_ratio_vs_oracle_<w>. Per
     strategy and world: time90_s_, time95_s_, time99_s_ (median; null = never), coverage_final_
     (median), coverage_min_, distance_m_ (whole run), distance99_m_ (null = never),
     collisions_, failed_runs_<strategy>_<world>.
@@ -195,6 +200,13 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY) -> dict:
     per_world = {w: versus_best_baseline(groups, w, lambda g: g.distance99_m, default) for w in worlds}
     out["default_distance99_ratio_vs_best_baseline"] = worst(per_world.values())
     out.update({f"distance99_ratio_vs_best_baseline_{w}": v for w, v in per_world.items()})
+    for w in worlds:            # the omniscient reference: the headroom of any goal selection
+        if (REFERENCE, w) in groups:
+            out[f"{REFERENCE}_time99_ratio_vs_best_baseline_{w}"] = versus_best_baseline(
+                groups, w, lambda g: g.time_s[99], REFERENCE)
+            if (default, w) in groups:
+                out[f"default_time99_ratio_vs_{REFERENCE}_{w}"] = ratio(
+                    groups[(default, w)].time_s[99], groups[(REFERENCE, w)].time_s[99])
     for (s, w), g in groups.items():
         for pct in MILESTONES_PCT:
             out[f"time{pct}_s_{s}_{w}"] = g.time_s[pct]

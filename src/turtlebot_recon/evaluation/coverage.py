@@ -96,6 +96,27 @@ def reachable_free_space(world: World, robot_radius_m: float, sensor_range_m: fl
     return seen & world.free
 
 
+def world_to_map(xy: np.ndarray, start: tuple) -> np.ndarray:
+    """World points (n, 2) -> the robot's map frame, whose origin is the start pose (x, y, yaw)."""
+    x0, y0, yaw = start
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = xy[:, 0] - x0, xy[:, 1] - y0
+    return np.column_stack([c * dx + s * dy, -s * dx + c * dy])
+
+
+def free_at(mx: np.ndarray, my: np.ndarray, occupancy: np.ndarray, resolution: float,
+            origin_xy: tuple) -> np.ndarray:
+    """bool, the shape of ``mx``: whether the map (int8 ROS values, row 0 at ``origin_xy``)
+    marks the cell under each map-frame point (m) free; points off the map are not."""
+    r = np.floor((np.asarray(my) - origin_xy[1]) / resolution).astype(np.int64)
+    c = np.floor((np.asarray(mx) - origin_xy[0]) / resolution).astype(np.int64)
+    inside = (r >= 0) & (r < occupancy.shape[0]) & (c >= 0) & (c < occupancy.shape[1])
+    free = np.zeros(r.shape, bool)
+    v = occupancy[r[inside], c[inside]]
+    free[inside] = (v >= 0) & (v <= FREE_THRESH)
+    return free
+
+
 # Where an F cell is sampled, in world cells from its centre: the centre and a point near each
 # corner. DESIGN §6 samples the centre only; that scores a perfect map below 100 % whenever the
 # robot's grid is not aligned with the world's (a start pose off the world's cell corners, a
@@ -133,13 +154,7 @@ class CoverageTracker:
     def covered(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> np.ndarray:
         """bool (|F|,): whether the robot's map (int8 ROS values, row 0 at ``origin_xy``, map
         frame, m) marks each F cell free at one of its sample points."""
-        r = np.floor((self._my - origin_xy[1]) / resolution).astype(np.int64)
-        c = np.floor((self._mx - origin_xy[0]) / resolution).astype(np.int64)
-        inside = (r >= 0) & (r < occupancy.shape[0]) & (c >= 0) & (c < occupancy.shape[1])
-        free = np.zeros(r.shape, bool)
-        v = occupancy[r[inside], c[inside]]
-        free[inside] = (v >= 0) & (v <= FREE_THRESH)
-        return free.any(axis=0)
+        return free_at(self._mx, self._my, occupancy, resolution, origin_xy).any(axis=0)
 
     def update(self, t_s: float, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> float:
         """Sample the robot's map at sim time ``t_s`` (s); append and return the coverage."""

@@ -1,0 +1,246 @@
+"""An omniscient reference route for exploration (simulation only: it reads the true map).
+
+How short could exploration be if the robot knew the building? ``Oracle.route`` plans, on
+the world itself, a route from the start whose lidar sees ``target`` of F (DESIGN §6), and
+``scripts/oracle_driver`` drives it through the same navigator as every strategy. Its time to
+99 % is then what goal selection alone can reach with this navigator, follower and initial
+spin: the headroom left to any strategy, and a check on targets stated as ratios between them.
+
+The route is a heuristic (no optimum is claimed; watchman routes are NP-hard):
+
+1. viewpoints   one cell per ``lattice_m`` block of the cells the robot reaches from the start
+                on the true costmap with cost <= ``max_cost`` (the explorer's goal rule);
+2. sight        the F cells each sees: line of sight within the sensor range, LIDAR_BEAMS rays
+                (``_native.visible_cells``, as F itself is made);
+3. cover        greedy set cover, from what the start sees, until ``target`` of F; restarts
+                draw each choice among the 3 largest gains (seeded);
+4. order        an open tour from the start on path distances (``tour.solve``, the way back free);
+5. model drive  A* between consecutive points, seeing every ``sample_m`` of path: the distance at
+                which ``target`` is seen; viewpoints whose removal does not lengthen it are
+                dropped (then the tour is solved again), the shortest restart kept.
+
+The model sees more than the robot's map marks free (a cell seen once at a grazing angle near
+the range limit may stay unknown), so the default target is 99.5 % for a 99 % milestone.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import _native
+from ..config import positive, require
+from ..exploration import tour
+from ..planning.costmap import CostmapSettings, make_costmap
+from ..robot import RobotSpec
+from ..sim.world import World
+from .coverage import LIDAR_BEAMS, free_at, lattice_points, reachable_free_space
+
+_TOP_K = 3          # a restart's greedy step draws among this many largest gains
+_SNAP_CELLS = 4     # a position in the inscribed band counts as the nearest passable cell this close
+
+
+@dataclass(frozen=True)
+class OracleSettings:
+    target: float = 0.99           # share of F the model route must see
+    range_margin_m: float = 0.5    # m, the model sees this much less far than the sensor (below)
+    lattice_m: float = 0.5         # m, viewpoint spacing
+    max_cost: int = 128            # a viewpoint's cost must be <= this (frontiers.max_cost's rule)
+    sample_m: float = 0.1          # m, the model sees every this much of path
+    restarts: int = 5              # randomised covers tried after the plain greedy one
+    seed: int = 0                  # their RNG
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "target", "lattice_m", "sample_m")
+        require(self.range_margin_m >= 0, src, "range_margin_m", "must be >= 0")
+        require(self.target <= 1.0, src, "target", "must be in (0, 1]")
+        require(isinstance(self.max_cost, int) and 0 <= self.max_cost <= 252, src, "max_cost",
+                "must be an integer in 0..252")
+        require(isinstance(self.restarts, int) and self.restarts >= 0, src, "restarts",
+                "must be an integer >= 0")
+
+
+@dataclass(frozen=True)
+class Route:
+    points: np.ndarray      # float (n, 2), world frame (m), in driving order (the start excluded)
+    distance_m: float       # model distance from the start until ``seen`` of F is seen
+    seen: float             # share of F the model route sees in all
+    viewpoints: int         # candidates considered
+
+
+class Oracle:
+    """The true costmap, F, what each viewpoint sees (cached across routes), and routes."""
+
+    def __init__(self, world: World, robot: RobotSpec, sensor_range_m: float,
+                 settings: OracleSettings = OracleSettings()):
+        settings.validate("oracle")
+        self.world, self.s, self.res = world, settings, world.resolution
+        F = reachable_free_space(world, robot.radius_m, sensor_range_m)
+        self.F = F.ravel()
+        self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
+        self.solid = world.solid.astype(np.uint8)
+        self.radius_cells = max(0.0, sensor_range_m - settings.range_margin_m) / self.res
+        occupancy = np.where(world.free, 0, 100).astype(np.int8)
+        self.costmap = make_costmap(occupancy, self.res, CostmapSettings.for_robot(robot))
+        start = self.cell(world.start[0], world.start[1])
+        if start is None:
+            raise ValueError(f"{world.path}: the start is off the map or in an obstacle's "
+                             "inscribed band")
+        field = _native.dijkstra(self.costmap, start, resolution=self.res)
+        ok = np.isfinite(field) & (self.costmap <= settings.max_cost)
+        self.cells = lattice_points(ok, max(1, round(settings.lattice_m / self.res)))
+        self._sight: dict = {}
+
+    def cell(self, x: float, y: float):
+        """The world cell (row, col) of (x, y), or the nearest passable one within
+        ``_SNAP_CELLS`` (a robot grazing the inscribed band); None if there is none."""
+        r, c = self.world.cell(x, y)
+        rows, cols = self.costmap.shape
+        r0, r1 = max(0, r - _SNAP_CELLS), min(rows, r + _SNAP_CELLS + 1)
+        c0, c1 = max(0, c - _SNAP_CELLS), min(cols, c + _SNAP_CELLS + 1)
+        rr, cc = np.nonzero(self.costmap[r0:r1, c0:c1] < 253)
+        if rr.size == 0:
+            return None
+        k = int(np.argmin((rr + r0 - r) ** 2 + (cc + c0 - c) ** 2))
+        return int(rr[k] + r0), int(cc[k] + c0)
+
+    def path(self, start_xy, goal_xy) -> np.ndarray:
+        """The cheapest path on the true costmap (world frame, float (n, 2)); (0, 2) if none."""
+        a, b = self.cell(*start_xy), self.cell(*goal_xy)
+        if a is None or b is None:
+            return np.zeros((0, 2))
+        cells, _ = _native.astar(self.costmap, a, b, resolution=self.res)
+        return self._xy(cells)
+
+    def _xy(self, cells) -> np.ndarray:
+        cells = np.asarray(cells).reshape(-1, 2)
+        return np.column_stack([self.world.origin[0] + (cells[:, 1] + 0.5) * self.res,
+                                self.world.origin[1] + (cells[:, 0] + 0.5) * self.res])
+
+    def sight(self, cell) -> np.ndarray:
+        """Flat indices of the F cells seen from ``cell`` (row, col)."""
+        key = (int(cell[0]), int(cell[1]))
+        if key not in self._sight:
+            seen = _native.visible_cells(self.solid, np.array([key], np.int32), self.radius_cells,
+                                         beams=LIDAR_BEAMS).ravel()
+            self._sight[key] = np.flatnonzero(seen & self.F)
+        return self._sight[key]
+
+    def route(self, start_xy=None, covered=None, restarts=None, target=None) -> Route:
+        """The shortest model route, from ``start_xy`` (world, m; default the world's start)
+        with the F cells ``covered`` (bool, CoverageTracker's order; default none) already
+        seen, until ``target`` of F (default: the settings'): the plain greedy cover and
+        ``restarts`` (default: the settings') randomised ones (module docstring).
+        distance_m is inf if no route reaches the target (more than the viewpoints see)."""
+        self.need = math.ceil((self.s.target if target is None else target) * self.F_cells.size)
+        xy = self.world.start[:2] if start_xy is None else start_xy
+        start = self.cell(*xy)
+        if start is None:
+            raise ValueError(f"the route's start ({xy[0]:.2f}, {xy[1]:.2f}) is off the map or "
+                             "in an obstacle's inscribed band")
+        known = np.zeros(self.F.size, bool)
+        if covered is not None:
+            known[self.F_cells[np.asarray(covered, bool)]] = True
+        rng = np.random.default_rng(self.s.seed)
+        best = None
+        for attempt in range((self.s.restarts if restarts is None else restarts) + 1):
+            chosen = self._cover(start, known, None if attempt == 0 else rng)
+            chosen, d = self._prune(start, known, self._order(start, chosen))
+            if best is None or d < best[1]:
+                best = (chosen, d)
+        chosen, d = best
+        points = self._xy(self.cells[chosen])
+        _, seen = self._drive(start, known, chosen)
+        return Route(points=points, distance_m=d, seen=seen, viewpoints=len(self.cells))
+
+    # ------------------------------------------------------------------ the steps
+    def _cover(self, start, known, rng) -> list:
+        """Greedy set cover (candidate indices); with ``rng``, each step among the top gains."""
+        covered = known.copy()
+        covered[self.sight(start)] = True
+        sights = [self.sight(c) for c in self.cells]
+        chosen = []
+        while np.count_nonzero(covered) < self.need:
+            gains = np.array([np.count_nonzero(~covered[v]) for v in sights])
+            if gains.size == 0 or gains.max() == 0:
+                break
+            if rng is None:
+                i = int(np.argmax(gains))
+            else:
+                top = np.argsort(-gains, kind="stable")[:_TOP_K]
+                i = int(rng.choice(top[gains[top] > 0]))
+            chosen.append(i)
+            covered[sights[i]] = True
+        return chosen
+
+    def _order(self, start, chosen: list) -> list:
+        """``chosen`` as an open tour from ``start`` on path distances."""
+        cells = [start] + [tuple(int(v) for v in self.cells[i]) for i in chosen]
+        n = len(cells)
+        D = np.empty((n, n))
+        for i, c in enumerate(cells):
+            field = _native.dijkstra(self.costmap, c, resolution=self.res)
+            D[i] = [field[q] for q in cells]
+        D = np.minimum(D, D.T)
+        D[~np.isfinite(D)] = tour.UNREACHABLE_M
+        D[:, 0] = 0.0                       # the way back to the start is free: an open route
+        return [chosen[k - 1] for k in tour.solve(D) if k != 0]
+
+    def _drive(self, start, known, chosen: list) -> tuple:
+        """(distance (m) at which ``need`` F cells are seen, or inf; share of F seen in all)."""
+        covered = known.copy()
+        covered[self.sight(start)] = True
+        count, done_m, cur = int(np.count_nonzero(covered)), 0.0, start
+        hit = 0.0 if count >= self.need else math.inf
+        for i in chosen:
+            goal = tuple(int(v) for v in self.cells[i])
+            path, _ = _native.astar(self.costmap, cur, goal, resolution=self.res)
+            if len(path) < 2:
+                continue
+            step = np.hypot(*np.diff(path, axis=0).T) * self.res
+            s = np.concatenate([[0.0], np.cumsum(step)])
+            marks = np.arange(self.s.sample_m, s[-1] + 1e-9, self.s.sample_m)
+            for j in np.unique(np.append(np.minimum(np.searchsorted(s, marks), len(path) - 1),
+                                         len(path) - 1)):
+                v = self.sight(path[j])
+                new = v[~covered[v]]
+                if new.size:
+                    covered[new] = True
+                    count += new.size
+                    if count >= self.need and math.isinf(hit):
+                        hit = done_m + float(s[j])
+            done_m += float(s[-1])
+            cur = goal
+        return hit, count / max(1, self.F_cells.size)
+
+    def _prune(self, start, known, chosen: list) -> tuple:
+        """Drop viewpoints whose removal does not lengthen the drive; (chosen, distance)."""
+        best, _ = self._drive(start, known, chosen)
+        dropped = math.isfinite(best)      # nothing to keep while the target is not reached
+        while dropped:
+            dropped = False
+            for k in range(len(chosen) - 1, -1, -1):
+                trial = chosen[:k] + chosen[k + 1:]
+                d, _ = self._drive(start, known, trial)
+                if d <= best + 1e-9:
+                    chosen, best, dropped = trial, d, True
+            if dropped:
+                again = self._order(start, chosen)
+                d, _ = self._drive(start, known, again)
+                if d < best:
+                    chosen, best = again, d
+        return chosen, best
+
+
+def farthest_known_free(points: np.ndarray, occupancy: np.ndarray, resolution: float,
+                        origin_xy: tuple):
+    """The index of the last of ``points`` (float (n, 2), map frame) up to which every point
+    lies on a cell the map (int8 ROS values, row 0 at ``origin_xy``) marks free; None if the
+    first does not. A goal there can be planned to through known space."""
+    pts = np.asarray(points, float).reshape(-1, 2)
+    free = free_at(pts[:, 0], pts[:, 1], occupancy, resolution, origin_xy)
+    if not free.size or not free[0]:
+        return None
+    gaps = np.flatnonzero(~free)
+    return int(gaps[0] - 1) if gaps.size else len(pts) - 1
