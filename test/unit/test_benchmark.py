@@ -195,3 +195,16 @@ def test_distance_until_a_milestone_along_the_path():
     assert distance_until(path, 10.0) == pytest.approx(9.0)
     assert distance_until(path, None) is None                        # never reached
     assert distance_until(np.zeros((0, 3)), 5.0) == 0.0
+
+
+def test_the_oracle_is_a_reference_not_a_baseline():
+    # house: recon 300 s, nearest 400 s, oracle 240 s. The oracle must not become "the best
+    # baseline" (recon's ratio stays 300 / 400); its own figures: 240 / 400 and 300 / 240.
+    runs = [run("recon", t99=300.0), run("nearest", t99=400.0), run(bm.REFERENCE, t99=240.0)]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["time99_ratio_vs_best_baseline_house"] == pytest.approx(0.75)
+    assert f["oracle_time99_ratio_vs_best_baseline_house"] == pytest.approx(0.6)
+    assert f["default_time99_ratio_vs_oracle_house"] == pytest.approx(1.25)
+    assert f["time99_s_oracle_house"] == 240.0
+    no_oracle = [r for r in runs if r.strategy != bm.REFERENCE]
+    assert not any("oracle" in k for k in bm.figures(bm.aggregate(no_oracle), no_oracle))

@@ -1,0 +1,113 @@
+"""The omniscient reference route (turtlebot_recon.evaluation.oracle) on a hand-made world of
+two rooms joined by a door, and the known-free prefix its driver steers by."""
+import math
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.config import ConfigError
+from turtlebot_recon.evaluation import CoverageTracker, world_to_map
+from turtlebot_recon.evaluation.oracle import Oracle, OracleSettings, farthest_known_free
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.sim import load_world
+
+from conftest import write_world
+
+RES = 0.05
+LIDAR_M = 3.5
+
+
+@pytest.fixture(scope="module")
+def two_rooms(tmp_path_factory):
+    """Rooms A (x 0.1..4.0) and B (x 4.2..8.2), y 0.1..3.1, the wall between them 0.2 m thick
+    with a 1 m door at y 1.1..2.1; start (1.0, 1.6) in A, 7.2 m from B's far wall."""
+    free = np.zeros((64, 166), bool)
+    free[2:62, 2:80] = True              # A: columns 2..79  -> x 0.1..4.0
+    free[2:62, 84:164] = True            # B: columns 84..163 -> x 4.2..8.2
+    free[22:42, 80:84] = True            # the door: rows 22..41 -> y 1.1..2.1
+    path = write_world(tmp_path_factory.mktemp("oracle"), "two_rooms", free, start=[1.0, 1.6, 0.0])
+    return load_world(path)
+
+
+@pytest.fixture(scope="module")
+def oracle(two_rooms):
+    return Oracle(two_rooms, load_robot("turtlebot3_burger"), LIDAR_M, OracleSettings(restarts=2))
+
+
+def test_route_sees_the_target_through_the_door(oracle):
+    route = oracle.route()
+    # B's far corners (8.2, 0.1 / 3.1) are 3.0 m (the model's range, 3.5 - 0.5 m) from x ~ 5.7
+    # on the door's line: the route must pass the door (x 4.1) and go ~1.6 m into B; from the
+    # start that is >= 4.7 m. A detour to A's corners first would add >= 2 m.
+    assert math.isfinite(route.distance_m)
+    assert 4.0 <= route.distance_m <= 5.5
+    assert route.seen >= 0.99
+    assert (route.points[:, 0] > 4.2).any()                       # it goes into B
+    for x, y in route.points:                                     # viewpoints keep off walls
+        assert oracle.costmap[oracle.world.cell(x, y)] <= OracleSettings().max_cost
+
+
+def test_restarts_never_lengthen_the_route(two_rooms):
+    robot = load_robot("turtlebot3_burger")
+    plain = Oracle(two_rooms, robot, LIDAR_M, OracleSettings(restarts=0)).route()
+    tried = Oracle(two_rooms, robot, LIDAR_M, OracleSettings(restarts=3)).route()
+    assert tried.distance_m <= plain.distance_m + 1e-9
+
+
+def test_nothing_left_to_see_gives_an_empty_route(oracle):
+    route = oracle.route(covered=np.ones(oracle.F_cells.size, bool))
+    assert len(route.points) == 0 and route.distance_m == 0.0 and route.seen == 1.0
+
+
+def test_a_replan_covers_only_what_is_still_unseen(oracle):
+    # room A seen already, the robot at the door: the route only needs B, and is shorter than
+    # the one from the start
+    tracker = CoverageTracker(oracle.world, oracle.F.reshape(oracle.world.free.shape))
+    x = oracle.world.origin[0] + (np.nonzero(oracle.F.reshape(oracle.world.free.shape))[1] + 0.5) * RES
+    covered = x < 4.1
+    assert covered.size == tracker.cells
+    route = oracle.route(start_xy=(4.1, 1.6), covered=covered, target=0.99)
+    assert math.isfinite(route.distance_m) and route.distance_m < oracle.route().distance_m - 2.0
+    assert (route.points[:, 0] > 4.2).all()
+
+
+def test_path_runs_on_the_true_costmap(oracle):
+    path = oracle.path((1.0, 1.6), (6.0, 1.6))
+    assert np.hypot(*(path[0] - (1.0, 1.6))) < RES and np.hypot(*(path[-1] - (6.0, 1.6))) < RES
+    assert all(oracle.costmap[oracle.world.cell(x, y)] < 253 for x, y in path)
+    assert oracle.path((1.0, 1.6), (4.1, -5.0)).shape == (0, 2)    # off the map: no path
+
+
+def test_a_start_in_the_inscribed_band_snaps_to_the_nearest_passable_cell(oracle):
+    near_wall = (0.14, 1.6)                                          # 0.04 m from A's left wall
+    assert oracle.costmap[oracle.world.cell(*near_wall)] >= 253
+    r, c = oracle.cell(*near_wall)
+    assert oracle.costmap[r, c] < 253
+    assert math.isfinite(oracle.route(start_xy=near_wall).distance_m)
+
+
+def test_settings_are_validated(two_rooms):
+    robot = load_robot("turtlebot3_burger")
+    for bad in ({"target": 1.5}, {"target": 0.0}, {"lattice_m": -1.0}, {"max_cost": 300},
+                {"restarts": -1}, {"range_margin_m": -0.1}):
+        with pytest.raises(ConfigError):
+            Oracle(two_rooms, robot, LIDAR_M, OracleSettings(**bad))
+
+
+def test_farthest_known_free_is_the_end_of_the_free_prefix():
+    occ = np.full((10, 10), -1, np.int8)
+    occ[5, :6] = 0                                   # free cells x in [0, 0.3) on row 5
+    pts = np.column_stack([np.arange(10) * RES + 0.025, np.full(10, 5 * RES + 0.025)])
+    assert farthest_known_free(pts, occ, RES, (0.0, 0.0)) == 5
+    occ[5, 8] = 0                                    # free again further on: still the prefix
+    assert farthest_known_free(pts, occ, RES, (0.0, 0.0)) == 5
+    assert farthest_known_free(pts[6:], occ, RES, (0.0, 0.0)) is None      # starts unknown
+    assert farthest_known_free(pts + (0.0, 10.0), occ, RES, (0.0, 0.0)) is None   # off the map
+    occ[5, :] = 0
+    assert farthest_known_free(pts, occ, RES, (0.0, 0.0)) == 9
+
+
+def test_world_to_map_is_the_inverse_of_the_start_pose():
+    start = (2.0, -1.0, math.pi / 2)
+    got = world_to_map(np.array([[2.0, -1.0], [2.0, 0.0], [1.0, -1.0]]), start)
+    assert np.allclose(got, [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
