@@ -91,6 +91,8 @@ class Oracle:
         ok = np.isfinite(field) & (self.costmap <= settings.max_cost)
         self.cells = lattice_points(ok, max(1, round(settings.lattice_m / self.res)))
         self._sight: dict = {}
+        self._legs: dict = {}
+        self._pairs: dict = {}              # (cell, cell) -> path distance (m)
 
     def cell(self, x: float, y: float):
         """The world cell (row, col) of (x, y), or the nearest passable one within
@@ -156,61 +158,94 @@ class Oracle:
 
     # ------------------------------------------------------------------ the steps
     def _cover(self, start, known, rng) -> list:
-        """Greedy set cover (candidate indices); with ``rng``, each step among the top gains."""
+        """Greedy set cover (candidate indices); with ``rng``, each step draws among the
+        ``_TOP_K`` largest gains. Lazy: a gain only shrinks as cells get covered, so a stale
+        one is an upper bound, and only candidates whose bound could win are re-counted."""
         covered = known.copy()
         covered[self.sight(start)] = True
         sights = [self.sight(c) for c in self.cells]
-        chosen = []
-        while np.count_nonzero(covered) < self.need:
-            gains = np.array([np.count_nonzero(~covered[v]) for v in sights])
-            if gains.size == 0 or gains.max() == 0:
+        bound = np.array([np.count_nonzero(~covered[v]) for v in sights], float)
+        k = 1 if rng is None else _TOP_K
+        count, chosen = int(np.count_nonzero(covered)), []
+        while count < self.need and bound.size:
+            work, best = bound.copy(), {}
+            while len(best) < k:
+                i = int(np.argmax(work))
+                if work[i] <= 0:
+                    break
+                g = np.count_nonzero(~covered[sights[i]])
+                bound[i] = work[i] = -np.inf
+                if g >= work.max():
+                    best[i] = g                     # no stale bound can beat it: confirmed
+                else:
+                    work[i] = g                     # re-queued with its true gain
+                bound[i] = g
+            if not best:
                 break
-            if rng is None:
-                i = int(np.argmax(gains))
-            else:
-                top = np.argsort(-gains, kind="stable")[:_TOP_K]
-                i = int(rng.choice(top[gains[top] > 0]))
+            i = max(best, key=best.get) if rng is None else int(rng.choice(sorted(best)))
             chosen.append(i)
+            count += best[i]
             covered[sights[i]] = True
+            bound[i] = 0.0
         return chosen
 
     def _order(self, start, chosen: list) -> list:
         """``chosen`` as an open tour from ``start`` on path distances."""
-        cells = [start] + [tuple(int(v) for v in self.cells[i]) for i in chosen]
-        n = len(cells)
-        D = np.empty((n, n))
-        for i, c in enumerate(cells):
-            field = _native.dijkstra(self.costmap, c, resolution=self.res)
-            D[i] = [field[q] for q in cells]
+        cells = [start] + [(int(self.cells[i][0]), int(self.cells[i][1])) for i in chosen]
+        for a in cells:                     # one Dijkstra per cell that lacks a pair, cached
+            if any((a, b) not in self._pairs for b in cells):
+                field = _native.dijkstra(self.costmap, a, resolution=self.res,
+                                         targets=np.array(cells, np.int32))
+                self._pairs.update({(a, b): float(field[b]) for b in cells})
+        D = np.array([[self._pairs[(a, b)] for b in cells] for a in cells])
         D = np.minimum(D, D.T)
         D[~np.isfinite(D)] = tour.UNREACHABLE_M
         D[:, 0] = 0.0                       # the way back to the start is free: an open route
         return [chosen[k - 1] for k in tour.solve(D) if k != 0]
 
+    def _leg(self, a, b) -> tuple:
+        """The model drive a -> b (cells), cached: (length m, arc length of each sample,
+        the F cells each sample sees, the union of those)."""
+        key = (a, b)
+        if key not in self._legs:
+            path, _ = _native.astar(self.costmap, a, b, resolution=self.res)
+            if len(path) < 2:
+                self._legs[key] = (0.0, np.zeros(0), [], np.zeros(0, np.int64))
+            else:
+                step = np.hypot(*np.diff(path, axis=0).T) * self.res
+                s = np.concatenate([[0.0], np.cumsum(step)])
+                marks = np.arange(self.s.sample_m, s[-1] + 1e-9, self.s.sample_m)
+                idx = np.unique(np.append(np.minimum(np.searchsorted(s, marks), len(path) - 1),
+                                          len(path) - 1))
+                sights = [self.sight(path[j]) for j in idx]
+                seen = np.zeros(self.F.size, bool)
+                for v in sights:
+                    seen[v] = True
+                self._legs[key] = (float(s[-1]), s[idx], sights, np.flatnonzero(seen))
+        return self._legs[key]
+
     def _drive(self, start, known, chosen: list) -> tuple:
-        """(distance (m) at which ``need`` F cells are seen, or inf; share of F seen in all)."""
+        """(distance (m) at which ``need`` F cells are seen, or inf; share of F seen in all).
+        Leg by leg on the legs' unions; sample by sample only in the leg that crosses ``need``."""
         covered = known.copy()
         covered[self.sight(start)] = True
         count, done_m, cur = int(np.count_nonzero(covered)), 0.0, start
         hit = 0.0 if count >= self.need else math.inf
         for i in chosen:
-            goal = tuple(int(v) for v in self.cells[i])
-            path, _ = _native.astar(self.costmap, cur, goal, resolution=self.res)
-            if len(path) < 2:
-                continue
-            step = np.hypot(*np.diff(path, axis=0).T) * self.res
-            s = np.concatenate([[0.0], np.cumsum(step)])
-            marks = np.arange(self.s.sample_m, s[-1] + 1e-9, self.s.sample_m)
-            for j in np.unique(np.append(np.minimum(np.searchsorted(s, marks), len(path) - 1),
-                                         len(path) - 1)):
-                v = self.sight(path[j])
-                new = v[~covered[v]]
-                if new.size:
-                    covered[new] = True
-                    count += new.size
-                    if count >= self.need and math.isinf(hit):
-                        hit = done_m + float(s[j])
-            done_m += float(s[-1])
+            goal = (int(self.cells[i][0]), int(self.cells[i][1]))
+            length, s, sights, union = self._leg(cur, goal)
+            new = union[~covered[union]]
+            if math.isinf(hit) and count + new.size >= self.need:
+                for sj, v in zip(s, sights):
+                    count += int(np.count_nonzero(~covered[v]))
+                    covered[v] = True
+                    if count >= self.need:
+                        hit = done_m + float(sj)
+                        break
+                new = union[~covered[union]]
+            covered[new] = True
+            count += new.size
+            done_m += length
             cur = goal
         return hit, count / max(1, self.F_cells.size)
 
