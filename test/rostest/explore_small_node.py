@@ -3,7 +3,8 @@
 this run (written after the node started) and checks it: the share of the reachable free
 space F that the map marks known >= min_seen, coverage (DESIGN §6: marked free) >=
 min_coverage and 90 % reached within budget_s of sim time, the explorer finished by itself
-(not by the budget), no collision, and the run output next to the report."""
+(not by the budget), no collision, the run output next to the report, and (if ~strategy is
+given) the strategy the report names."""
 import json
 import os
 import time
@@ -49,6 +50,8 @@ class ExploreSmall(unittest.TestCase):
         self.assertNotIn("budget", report["finished_reason"], summary)
         self.assertEqual(report["collisions"], 0, summary)
         self.assertGreater(report["distance_m"], 1.0, summary)
+        if rospy.has_param("~strategy"):
+            self.assertEqual(report["strategy"], rospy.get_param("~strategy"))
         out = os.path.dirname(path)
         for name in ("map.yaml", "map.pgm", "map.png", "coverage.png", "report.md"):
             self.assertTrue(os.path.exists(os.path.join(out, name)), name)
