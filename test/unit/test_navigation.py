@@ -108,3 +108,22 @@ def test_blocked_counts_once_per_map(nav, monkeypatch):
             assert nav.status == "active", f"failed on map {maps}: {nav.reason}"
             nav.update_map(room(), RES, (0.0, 0.0))
     assert nav.status == "failed" and "blocked on 4 maps in a row" in nav.reason and "unknown cell ahead" in nav.reason
+
+
+def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():
+    # a 0.2 m pillar at (2.0, 1.5); the waffle_pi stands on cost 221 at the edge of its band,
+    # 2 cm off its cell's centre, facing the plan's first waypoint. A shortcut checked from the
+    # cell's centre made a first leg whose line from the robot clipped an inscribed cell: every
+    # look-ahead point was "blocked", and the same plan came back each time. The first leg now
+    # goes to the next cell of the plan, from where the robot is: it drives, and arrives.
+    occ = room()
+    occ[28:32, 38:42] = 100
+    nav = Navigation(NavigationSettings(), load_robot("turtlebot3_waffle_pi"))
+    nav.update_map(occ, RES, (0.0, 0.0))
+    pose = (2.101, 1.903, -0.115)
+    assert nav.map.costmap[int(pose[1] / RES), int(pose[0] / RES)] == 221
+    nav.set_goal(3.3, 1.52)
+    assert nav.step(0.0, pose, (0.0, 0.0)) != (0.0, 0.0)
+    x, y, _ = drive(nav, pose, 40.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.hypot(x - 3.3, y - 1.52) <= 0.1 + 0.03          # tolerance + one period of travel

@@ -166,9 +166,16 @@ class Navigation:
                          visits=m.visits, resolution=m.resolution)
         except PlanningError as exc:
             return self._finish("failed", str(exc))
-        waypoints = _native.shortcut(dense, m.costmap) if self.s.planner.shortcut else dense
+        # The path starts at the robot's exact position, anywhere in its cell, so its first leg
+        # goes to the next cell of the dense plan, whose straight line stays in the 2 x 2 block
+        # the plan crossed (no corner cutting); line-of-sight shortcuts start there. A shortcut
+        # from the start cell's centre was checked from that centre only: from the robot's
+        # actual position its line could clip an inscribed cell of a pillar's band, and every
+        # look-ahead point along it was "blocked", plan after plan.
+        rest = dense[1:]
+        waypoints = _native.shortcut(rest, m.costmap) if self.s.planner.shortcut and len(rest) > 1 else rest
         self.dense_xy = m.centre(dense)
-        self.path_xy = np.vstack([[pose[0], pose[1]], m.centre(waypoints)[1:]])
+        self.path_xy = np.vstack([[pose[0], pose[1]], m.centre(waypoints).reshape(-1, 2)])
         return True
 
     def _finish(self, status: str, reason: str) -> bool:
