@@ -175,10 +175,26 @@ def test_idle_navigator_time_does_not_count_as_stuck():
     for _ in range(200):                        # 20 s standing still with no goal: fine
         run.tick(nav="idle")
     assert run.state == EXPLORE
-    start = run.now
+    last_idle = run.now - 0.1
     while run.state == EXPLORE:
         run.tick(nav="active")
-    assert run.now - 0.1 == pytest.approx(start + 10.0)   # 10 s after it was first seen active
+    # the time from the last idle tick on counts (its next tick expects motion): stuck 10 s later
+    assert run.now - 0.1 == pytest.approx(last_idle + 10.0)
+
+
+def test_goals_reached_where_the_robot_stands_are_stuck_too():
+    # the navigator active for one tick, then done, again and again (a goal the strategy picks
+    # again though the robot stands on it): no 10 s of "active" in a row, but every interval
+    # touches a tick that expects motion, so the watchdog fires 10 s after it started
+    run = Run()
+    run.tick()
+    start = run.now
+    k = 0
+    while run.state == EXPLORE and run.now < start + 30.0:
+        run.tick(nav="active" if k % 2 == 0 else "succeeded")
+        k += 1
+    assert run.state == NUDGE
+    assert run.sup.transitions[-1][0] <= start + 10.0 + 0.1 + 1e-9
 
 
 def test_watchdog_unit():
@@ -188,8 +204,12 @@ def test_watchdog_unit():
     assert w.update((0.1, 0), 10.0, True) == "stuck"
     assert w.update((0.1, 0), 10.1, True) is None          # the window starts again
     assert w.update((0.4, 0), 10.2, True) == "progress"    # 0.3 m from the new anchor
-    assert w.update((0.4, 0), 30.0, False) is None         # not expected to move: re-anchored
-    assert w.update((0.4, 0), 39.9, True) is None
+    assert w.update((0.4, 0), 10.3, False) is None         # 0.1 s counted (the last tick moved)
+    assert w.update((0.4, 0), 30.0, False) is None         # idle to idle: not counted
+    assert w.update((0.4, 0), 39.8, True) is None          # 0.1 + 9.8 s
+    assert w.update((0.4, 0), 39.9, True) == "stuck"       # 10 s; the anchor never moved
+    assert w.update((0.4, 0), 45.0, False) is None         # not stuck while not expected to move
+    assert w.update((0.75, 0), 60.0, False) == "progress"  # moving while idle still counts
 
 
 # ---------------------------------------------------------------- recovery ladder

@@ -162,13 +162,16 @@ def most_open_bearing(clearance: Clearance, count: int, half_window: int = 1) ->
 
 class StuckWatchdog:
     """Seed 004's watchdog: stuck when the robot stays within ``distance_m`` of an anchor point
-    for ``window_s`` while it should be moving.
+    for ``window_s`` of time in which it should be moving.
 
     The anchor is the pose where the robot last made progress (got ``distance_m`` from the
-    previous anchor), or where it was first seen expected to move (``reset`` or the first
-    ``update`` with ``moving`` after one without). ``update`` returns
-    "progress" when the robot reaches ``distance_m`` (>=) from the anchor, "stuck" once
-    ``window_s`` (>=) have passed without that, and None otherwise. After "stuck" the window
+    previous anchor), or where ``reset`` put it. The time between two ticks counts when either
+    of them expected motion (``moving``); stretches with none do not (waiting for a goal), but
+    they do not move the anchor either, so a robot that keeps getting goals it "reaches" where
+    it stands (the navigator active for a tick, then done, again and again) is stuck after
+    ``window_s`` like one that cannot move. ``update`` returns "progress" when the robot
+    reaches ``distance_m`` (>=) from the anchor, "stuck" on a tick that expects motion once
+    ``window_s`` (>=) have counted without that, and None otherwise. After "stuck" the window
     starts again, so it fires at most once per window.
     """
 
@@ -176,15 +179,30 @@ class StuckWatchdog:
         self.distance_m = distance_m
         self.window_s = window_s
         self._anchor: Optional[Tuple[float, float]] = None
-        self._since_s = 0.0
+        self._counted_s = 0.0
+        self._last: Optional[Tuple[float, bool]] = None     # (time, moving) of the last tick
 
     def reset(self, xy: Sequence[float], now_s: float) -> None:
-        self._anchor, self._since_s = (float(xy[0]), float(xy[1])), now_s
+        self._anchor, self._counted_s = (float(xy[0]), float(xy[1])), 0.0
+        self._last = (now_s, False)
 
     def update(self, xy: Sequence[float], now_s: float, moving: bool) -> Optional[str]:
-        if not moving:                           # idle time does not count: the window
-            self._anchor = None                  # starts at the first tick expected to move
+        last, self._last = self._last, (now_s, moving)
+        if self._anchor is None:
+            self.reset(xy, now_s)
+            self._last = (now_s, moving)
             return None
+        if last is not None and (moving or last[1]):
+            self._counted_s += max(0.0, now_s - last[0])
+        if math.dist(xy[:2], self._anchor) >= self.distance_m:
+            self.reset(xy, now_s)
+            self._last = (now_s, moving)
+            return "progress"
+        if moving and self._counted_s >= self.window_s:
+            self.reset(xy, now_s)
+            self._last = (now_s, moving)
+            return "stuck"
+        return None
         if self._anchor is None:
             self.reset(xy, now_s)
             return None
