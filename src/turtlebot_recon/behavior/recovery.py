@@ -203,13 +203,3 @@ class StuckWatchdog:
             self._last = (now_s, moving)
             return "stuck"
         return None
-        if self._anchor is None:
-            self.reset(xy, now_s)
-            return None
-        if math.dist(xy[:2], self._anchor) >= self.distance_m:
-            self.reset(xy, now_s)
-            return "progress"
-        if now_s - self._since_s >= self.window_s:
-            self.reset(xy, now_s)
-            return "stuck"
-        return None
