@@ -182,24 +182,22 @@ class StuckWatchdog:
         self._counted_s = 0.0
         self._last: Optional[Tuple[float, bool]] = None     # (time, moving) of the last tick
 
-    def reset(self, xy: Sequence[float], now_s: float) -> None:
+    def reset(self, xy: Sequence[float], now_s: float, moving: bool = False) -> None:
+        """Anchor at ``xy``, nothing counted; ``moving``: whether this tick expected motion."""
         self._anchor, self._counted_s = (float(xy[0]), float(xy[1])), 0.0
-        self._last = (now_s, False)
+        self._last = (now_s, moving)
 
     def update(self, xy: Sequence[float], now_s: float, moving: bool) -> Optional[str]:
         last, self._last = self._last, (now_s, moving)
         if self._anchor is None:
-            self.reset(xy, now_s)
-            self._last = (now_s, moving)
+            self.reset(xy, now_s, moving)
             return None
         if last is not None and (moving or last[1]):
             self._counted_s += max(0.0, now_s - last[0])
         if math.dist(xy[:2], self._anchor) >= self.distance_m:
-            self.reset(xy, now_s)
-            self._last = (now_s, moving)
+            self.reset(xy, now_s, moving)
             return "progress"
         if moving and self._counted_s >= self.window_s:
-            self.reset(xy, now_s)
-            self._last = (now_s, moving)
+            self.reset(xy, now_s, moving)
             return "stuck"
         return None
