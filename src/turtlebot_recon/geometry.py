@@ -1,0 +1,49 @@
+"""Angles and grid cells: the one place that converts metres to cells and wraps angles.
+
+Grids are in nav_msgs/OccupancyGrid order: row 0 holds the smallest y, cell (row, col) is the
+square ``origin + [col, col + 1) x [row, row + 1)`` cells, unrotated (``origin`` is (x, y[, yaw])
+in metres; a yaw, if given, is ignored as map_server and the costmaps do). REP-103: metres and
+radians, counter-clockwise positive.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence, Tuple
+
+import numpy as np
+
+
+def wrap_angle(a: float) -> float:
+    """An angle (rad) wrapped into [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def xy_to_cell(xy: Sequence[float], resolution: float, origin: Sequence[float]) -> Tuple[int, int]:
+    """(x, y) m -> the (row, col) of the cell that holds it (may lie outside the grid)."""
+    return (int(math.floor((xy[1] - origin[1]) / resolution)),
+            int(math.floor((xy[0] - origin[0]) / resolution)))
+
+
+def cell_to_xy(cell: Sequence[int], resolution: float, origin: Sequence[float]) -> Tuple[float, float]:
+    """(row, col) -> (x, y) m of the cell's centre."""
+    return (float(origin[0] + (cell[1] + 0.5) * resolution),
+            float(origin[1] + (cell[0] + 0.5) * resolution))
+
+
+def points_to_cells(xy: np.ndarray, resolution: float, origin: Sequence[float]) -> Tuple[np.ndarray, np.ndarray]:
+    """Points (n, 2) m -> (rows, cols) int64 arrays of their cells (may lie outside the grid)."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    return (np.floor((xy[:, 1] - origin[1]) / resolution).astype(np.int64),
+            np.floor((xy[:, 0] - origin[0]) / resolution).astype(np.int64))
+
+
+def cells_to_points(cells: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
+    """Cells (n, 2) as (row, col) -> (n, 2) float array of their centres (x, y) m."""
+    cells = np.asarray(cells, dtype=float).reshape(-1, 2)
+    return np.stack([origin[0] + (cells[:, 1] + 0.5) * resolution,
+                     origin[1] + (cells[:, 0] + 0.5) * resolution], axis=1)
+
+
+def inside(rows, cols, shape: Sequence[int]):
+    """Whether (rows, cols) (scalars or arrays) lie in a grid of ``shape``."""
+    return (rows >= 0) & (rows < shape[0]) & (cols >= 0) & (cols < shape[1])
