@@ -27,7 +27,7 @@ re-plans for what is left, at a cost in time).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,6 +61,29 @@ class OracleSettings:
                 "must be an integer in 0..252")
         require(isinstance(self.restarts, int) and self.restarts >= 0, src, "restarts",
                 "must be an integer >= 0")
+
+
+@dataclass(frozen=True)
+class OracleDriverSettings:
+    """config/oracle.yaml: scripts/oracle_driver, which drives the oracle's routes."""
+    world: str = "house"                 # a name in worlds/ or a world YAML path (as sim_bridge's)
+    robot: str = "turtlebot3_waffle_pi"  # costmap footprint, F's radius and lidar range
+    map_frame: str = "odom"              # goals go out in this frame (the start pose is its origin)
+    route: OracleSettings = field(default_factory=OracleSettings)
+    replan_restarts: int = 0             # randomised covers for the routes after the first
+    finish_coverage: float = 0.995       # share of F the robot's map covers: done
+    resend_period_s: float = 1.0         # s (sim), the map is checked for a nearer point this often
+    advance_m: float = 0.5               # m, ... which replaces the one driven to once this much further
+    point_timeout_s: float = 120.0       # s (sim), a route point not reached by then is skipped
+    max_routes: int = 5                  # routes planned in all (the first and the re-plans)
+    min_route_gain: float = 0.0005       # a re-planned route that adds less of F than this: done
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "finish_coverage", "resend_period_s", "advance_m", "point_timeout_s", "max_routes",
+                 "min_route_gain")
+        require(self.finish_coverage <= 1.0, src, "finish_coverage", "must be in (0, 1]")
+        require(isinstance(self.replan_restarts, int) and self.replan_restarts >= 0, src,
+                "replan_restarts", "must be an integer >= 0")
 
 
 @dataclass(frozen=True)
