@@ -1,15 +1,14 @@
 """Messages of the explorer and the evaluator <-> core data (no algorithm here).
 
 - ``grid``: nav_msgs/OccupancyGrid -> (int8 (rows, cols), resolution, (x, y) origin).
-- ``ScanClearance``: sensor_msgs/LaserScan -> the supervisor's ``scan_clearance`` callable
-  (robot-frame bearing -> free distance for the robot's body, m).
+- ``scan_clearance``: sensor_msgs/LaserScan -> the supervisor's ``scan_clearance`` callable
+  (``behavior.ScanClearance``: robot-frame bearing -> free distance for the robot's body, m).
 - ``nav_status``: an actionlib terminal state -> the supervisor's navigator status word.
 - ``frontier_markers``: frontiers, the chosen goal and the tour -> visualization_msgs/MarkerArray.
 - ``pose_stamped``: (x, y, yaw) -> geometry_msgs/PoseStamped.
 """
 from __future__ import annotations
 
-import math
 from typing import Optional, Sequence
 
 import numpy as np
@@ -20,6 +19,7 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ..behavior.scan_clearance import ScanClearance
 from .convert import stamp, yaw_to_quaternion
 
 
@@ -32,41 +32,11 @@ def grid(m: OccupancyGrid) -> tuple:
     return occ, float(m.info.resolution), (m.info.origin.position.x, m.info.origin.position.y)
 
 
-class ScanClearance:
-    """``clearance(bearing_rad) -> m``: how far the robot could drive straight along a
-    robot-frame bearing (0 ahead, + left) before its body, ``half_width_m`` either side of
-    its centre line, meets a scan return: min over the returns in that corridor of
-    forward distance - sqrt(w^2 - lateral^2). Returns are placed in the base frame with the
-    lidar's mounting offset (the lidar is level and faces forward on every TurtleBot).
-    A beam without a valid return (the driver's 0.0, inf, NaN, or out of [range_min,
-    range_max]) shows nothing within range, so a corridor without returns is range_max
-    long; a bearing outside the scan's field of view is 0 (unknown is not open)."""
-
-    def __init__(self, m: LaserScan, half_width_m: float, lidar_xy: Sequence[float] = (0.0, 0.0)):
-        r = np.asarray(m.ranges, dtype=float)
-        a = m.angle_min + m.angle_increment * np.arange(r.size)
-        ok = np.isfinite(r) & (r >= m.range_min) & (r <= m.range_max)
-        self.x = lidar_xy[0] + r[ok] * np.cos(a[ok])
-        self.y = lidar_xy[1] + r[ok] * np.sin(a[ok])
-        self.half_width_m, self.range_max = float(half_width_m), float(m.range_max)
-        span = abs(m.angle_increment) * max(r.size, 1)
-        self.full_circle = span >= 2.0 * math.pi - 1e-6
-        self.angle_min, self.angle_max = min(m.angle_min, m.angle_max), max(m.angle_min, m.angle_max)
-
-    def __call__(self, bearing_rad: float) -> float:
-        if not self.full_circle:
-            b = (bearing_rad - self.angle_min) % (2.0 * math.pi) + self.angle_min
-            if b > self.angle_max:
-                return 0.0
-        c, s = math.cos(bearing_rad), math.sin(bearing_rad)
-        forward = c * self.x + s * self.y
-        lateral = -s * self.x + c * self.y
-        w = self.half_width_m
-        hit = (np.abs(lateral) <= w) & (forward > 0.0)
-        if not hit.any():
-            return self.range_max
-        reach = forward[hit] - np.sqrt(w * w - lateral[hit] ** 2)
-        return float(max(0.0, min(self.range_max, reach.min())))
+def scan_clearance(m: LaserScan, half_width_m: float,
+                   lidar_xy: Sequence[float] = (0.0, 0.0)) -> ScanClearance:
+    """The supervisor's ``scan_clearance`` callable for a scan (``behavior.ScanClearance``)."""
+    return ScanClearance(m.ranges, m.angle_min, m.angle_increment, m.range_min, m.range_max,
+                         half_width_m, lidar_xy, angle_max=m.angle_max)
 
 
 def nav_status(state: Optional[int]) -> str:
