@@ -9,7 +9,7 @@ import pytest
 from turtlebot_recon import _native
 from turtlebot_recon.evaluation import CoverageTracker, reachable_cells, reachable_free_space
 from turtlebot_recon.evaluation import coverage as coverage_module
-from turtlebot_recon.evaluation.coverage import lattice_points
+from turtlebot_recon.evaluation.coverage import free_at, lattice_points, map_values_at
 from turtlebot_recon.evaluation.metrics import map_cells_in_world
 from turtlebot_recon.sim import load_world
 
@@ -348,6 +348,39 @@ def test_time_to_thresholds(room_world):
                                  "time_to_95_s": 20.0, "time_to_99_s": None}
     tracker.update(40.0, known(80), RES, origin)
     assert tracker.time_to(0.99) == 40.0 and tracker.final == 1.0
+
+
+def test_map_values_at_samples_the_cell_under_each_point():
+    # A 2 x 3 map at 0.05 m from (-0.1, 0.2): point (x, y) lies in row floor((y - 0.2) / 0.05),
+    # col floor((x + 0.1) / 0.05). (-0.075, 0.225) -> (0, 0); (0.04, 0.29) -> (1, 2);
+    # (-0.04, 0.26) -> (1, 1); off the map: x = -0.11 (col -1), y = 0.31 (row 2) -> ``outside``.
+    occ = np.array([[0, 25, 26], [-1, 65, 100]], np.int8)
+    mx = np.array([[-0.075, 0.04], [-0.04, -0.11]])
+    my = np.array([[0.225, 0.29], [0.26, 0.225]])
+    v = map_values_at(mx, my, occ, RES, (-0.1, 0.2))
+    assert v.shape == (2, 2) and v.tolist() == [[0, 100], [65, -1]]
+    assert map_values_at(np.array([0.0]), np.array([0.31]), occ, RES, (-0.1, 0.2), outside=-7).tolist() == [-7]
+    # free_at: 0..25 free; unknown, 26.. and off the map not.
+    xs, ys = (np.arange(3) + 0.5) * RES - 0.1, np.full(3, 0.225)
+    assert free_at(xs, ys, occ, RES, (-0.1, 0.2)).tolist() == [True, True, False]
+    assert free_at(xs, ys + RES, occ, RES, (-0.1, 0.2)).tolist() == [False, False, False]
+
+
+def test_seen_counts_known_and_occupied_f_cells(room_world):
+    # The room's F: 80 x 60 = 4800 cells, free columns 2..81 of the world grid. A perfect map
+    # (the world grid, origin shifted by the start (1, 1.5)) knows all of F, none occupied.
+    world = load_world(room_world)
+    tracker = CoverageTracker(world, reachable_free_space(world, BURGER_RADIUS_M, 3.5))
+    occ = np.where(world.free, 0, 100).astype(np.int8)
+    origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
+    assert tracker.seen(occ, RES, origin) == (1.0, 0.0)
+    # Column 42 marked occupied (60 cells: seen, not free), column 43 unknown (60 cells):
+    # known (4800 - 60) / 4800 = 0.9875, occupied 60 / 4800 = 0.0125.
+    occ[:, 42], occ[:, 43] = 100, -1
+    known, occupied = tracker.seen(occ, RES, origin)
+    assert known == pytest.approx(0.9875) and occupied == pytest.approx(0.0125)
+    # A map that holds none of F: nothing seen.
+    assert tracker.seen(occ, RES, (100.0, 100.0)) == (0.0, 0.0)
 
 
 def test_tracker_rejects_an_empty_or_misshapen_f(room_world):

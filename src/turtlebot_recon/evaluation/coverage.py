@@ -13,7 +13,8 @@ import numpy as np
 from scipy import ndimage
 
 from .. import _native
-from ..mapping.map_io import FREE_THRESH
+from ..geometry import cells_to_points, inside, points_to_cells
+from ..mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
 from ..sim.world import World
 
 LATTICE_M = 0.25        # viewpoint spacing for F (DESIGN §6)
@@ -104,17 +105,25 @@ def world_to_map(xy: np.ndarray, start: tuple) -> np.ndarray:
     return np.column_stack([c * dx + s * dy, -s * dx + c * dy])
 
 
+def map_values_at(mx: np.ndarray, my: np.ndarray, occupancy: np.ndarray, resolution: float,
+                  origin_xy: tuple, outside: int = -1) -> np.ndarray:
+    """int16, the shape of ``mx``: the map's value (ROS int8: -1 unknown, 0..100) of the cell
+    under each map-frame point (m), row 0 at ``origin_xy``; ``outside`` for points off the map."""
+    mx = np.asarray(mx, dtype=float)
+    rows, cols = points_to_cells(np.stack([mx.ravel(), np.asarray(my, dtype=float).ravel()], axis=1),
+                                 resolution, origin_xy)
+    on_map = inside(rows, cols, occupancy.shape)
+    values = np.full(rows.shape, outside, dtype=np.int16)
+    values[on_map] = occupancy[rows[on_map], cols[on_map]]
+    return values.reshape(mx.shape)
+
+
 def free_at(mx: np.ndarray, my: np.ndarray, occupancy: np.ndarray, resolution: float,
             origin_xy: tuple) -> np.ndarray:
     """bool, the shape of ``mx``: whether the map (int8 ROS values, row 0 at ``origin_xy``)
     marks the cell under each map-frame point (m) free; points off the map are not."""
-    r = np.floor((np.asarray(my) - origin_xy[1]) / resolution).astype(np.int64)
-    c = np.floor((np.asarray(mx) - origin_xy[0]) / resolution).astype(np.int64)
-    inside = (r >= 0) & (r < occupancy.shape[0]) & (c >= 0) & (c < occupancy.shape[1])
-    free = np.zeros(r.shape, bool)
-    v = occupancy[r[inside], c[inside]]
-    free[inside] = (v >= 0) & (v <= FREE_THRESH)
-    return free
+    v = map_values_at(mx, my, occupancy, resolution, origin_xy)
+    return (v >= 0) & (v <= FREE_THRESH)
 
 
 # Where an F cell is sampled, in world cells from its centre: the centre and a point near each
@@ -137,15 +146,12 @@ class CoverageTracker:
         rows, cols = np.nonzero(reachable_free)
         if rows.size == 0:
             raise ValueError("F is empty: nothing to cover")
-        x0, y0, yaw = world.start if map_to_world is None else map_to_world
-        offsets = np.asarray(SAMPLE_OFFSETS, float)[:, :, None]          # (k, 2, 1)
-        wx = world.origin[0] + (cols + 0.5 + offsets[:, 0]) * world.resolution   # (k, |F|)
-        wy = world.origin[1] + (rows + 0.5 + offsets[:, 1]) * world.resolution
-        # world -> map: the inverse of map_to_world, p_map = R(-yaw) (p_world - t).
-        c, s = math.cos(yaw), math.sin(yaw)
-        dx, dy = wx - x0, wy - y0
-        self._mx = c * dx + s * dy
-        self._my = -s * dx + c * dy
+        centres = cells_to_points(np.column_stack([rows, cols]), world.resolution, world.origin)
+        offsets = np.asarray(SAMPLE_OFFSETS, float) * world.resolution           # (k, 2) m
+        points = centres[None, :, :] + offsets[:, None, :]                       # (k, |F|, 2), world
+        # world -> map: the inverse of map_to_world (default: the world's start pose).
+        m = world_to_map(points.reshape(-1, 2), world.start if map_to_world is None else map_to_world)
+        self._mx, self._my = m[:, 0].reshape(points.shape[:2]), m[:, 1].reshape(points.shape[:2])
         self.cells = int(rows.size)
         self.area_m2 = self.cells * world.resolution ** 2
         self._t: list = []
@@ -155,6 +161,14 @@ class CoverageTracker:
         """bool (|F|,): whether the robot's map (int8 ROS values, row 0 at ``origin_xy``, map
         frame, m) marks each F cell free at one of its sample points."""
         return free_at(self._mx, self._my, occupancy, resolution, origin_xy).any(axis=0)
+
+    def seen(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> tuple:
+        """(known, occupied): the shares of F whose centre the robot's map marks known (free or
+        occupied: observed, whatever the mapper concluded) and occupied (>= 65). Coverage counts
+        only free; F cells along walls often read occupied (range noise puts about half the hits
+        in front of the wall face and a hit outweighs a miss): seen, never "covered"."""
+        v = map_values_at(self._mx[0], self._my[0], occupancy, resolution, origin_xy)   # SAMPLE_OFFSETS[0]: centres
+        return float(np.mean(v >= 0)), float(np.mean(v >= OCCUPIED_THRESH))
 
     def update(self, t_s: float, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> float:
         """Sample the robot's map at sim time ``t_s`` (s); append and return the coverage."""

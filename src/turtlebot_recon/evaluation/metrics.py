@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ..geometry import cells_to_points, inside, points_to_cells
 from ..mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
 from ..sim.world import World
 
@@ -13,19 +14,19 @@ from ..sim.world import World
 def map_cells_in_world(shape: tuple, resolution: float, origin_xy: tuple, map_to_world: tuple) -> tuple:
     """World (x, y) of every cell centre of a robot map, as two (rows, cols) arrays."""
     rows, cols = np.mgrid[0:shape[0], 0:shape[1]]
-    mx = origin_xy[0] + (cols + 0.5) * resolution
-    my = origin_xy[1] + (rows + 0.5) * resolution
+    m = cells_to_points(np.column_stack([rows.ravel(), cols.ravel()]), resolution, origin_xy)
+    mx, my = m[:, 0].reshape(shape), m[:, 1].reshape(shape)
     x0, y0, yaw = map_to_world
     c, s = math.cos(yaw), math.sin(yaw)
     return x0 + c * mx - s * my, y0 + s * mx + c * my
 
 
 def _sample(grid: np.ndarray, world: World, wx: np.ndarray, wy: np.ndarray, outside):
-    r = np.floor((wy - world.origin[1]) / world.resolution).astype(int)
-    c = np.floor((wx - world.origin[0]) / world.resolution).astype(int)
-    inside = (r >= 0) & (r < grid.shape[0]) & (c >= 0) & (c < grid.shape[1])
-    out = np.full(wx.shape, outside, dtype=grid.dtype)
-    out[inside] = grid[r[inside], c[inside]]
+    """``grid`` (a world-grid array) at world points (m), ``outside`` for points off the world."""
+    r, c = points_to_cells(np.column_stack([wx, wy]), world.resolution, world.origin)
+    on_grid = inside(r, c, grid.shape)
+    out = np.full(r.shape, outside, dtype=grid.dtype)
+    out[on_grid] = grid[r[on_grid], c[on_grid]]
     return out
 
 
