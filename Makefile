@@ -65,16 +65,17 @@ test: build
 
 run: build
 	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), headless; output in $(OUTPUT)"
-	$(ENV) roslaunch turtlebot_recon explore_sim.launch world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) \
-	  rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT))
-	@echo "[run] done: $(abspath $(OUTPUT))/report.md"
+	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
+	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) \
+	  rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
 
 wander: build
-	$(ENV) roslaunch turtlebot_recon run_sim.launch world:=$(WORLD) robot:=$(ROBOT) rtf:=$(RTF) \
-	  seed:=$(SEED) duration:=$(DURATION) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT))
+	@$(ENV) tools/launch --tag wander --done scripted_drive --report $(abspath $(OUTPUT))/report.json run_sim.launch \
+	  world:=$(WORLD) robot:=$(ROBOT) rtf:=$(RTF) seed:=$(SEED) duration:=$(DURATION) rviz:=$(RVIZ) \
+	  output:=$(abspath $(OUTPUT)) end_with_driver:=false
 
 sim: build
-	$(ENV) roslaunch turtlebot_recon sim.launch world:=$(WORLD) robot:=$(ROBOT) rtf:=1 seed:=$(SEED) rviz:=true
+	@$(ENV) tools/launch --tag sim sim.launch world:=$(WORLD) robot:=$(ROBOT) rtf:=1 seed:=$(SEED) rviz:=true
 
 bench-sim: build
 	$(ENV) python test/benchmarks/bench_sim.py
@@ -86,7 +87,7 @@ bench-map: build
 # burger in the maze, per-world budgets) apply unless a variable is given; ROBOT and BUDGET only
 # when set by the user (ROBOTS=maze=...,house=... per world).
 bench-explore: build
-	$(ENV) python test/benchmarks/bench_explore.py $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
+	@$(ENV) python test/benchmarks/bench_explore.py $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(SEEDS),--seeds $(SEEDS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \

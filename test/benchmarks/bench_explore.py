@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Exploration benchmark (`make bench-explore`, issue 5 item 8): strategies x worlds x seeds.
 
-Each run is `roslaunch turtlebot_recon explore_sim.launch` headless (rtf:=0, lidar only: the
-camera is off, as the launch file's default) with its own ROS master port (`roslaunch -p`,
-ROS_MASTER_URI), ROS_HOME (logs) and output directory
+Each run is `tools/launch ... explore_sim.launch` (what `make run` runs) headless (rtf:=0, lidar
+only: the camera is off, as the launch file's default) with its own ROS master port
+(ROS_MASTER_URI on 127.0.0.1), ROS_HOME (logs) and output directory
 output/bench/explore/<world>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
 launch.log, run.json). Up to --jobs runs at a time. A run is "ok" when the evaluator ended it
 and wrote report.json; one that exceeds its wall-clock limit is stopped (SIGINT, then SIGKILL)
-and recorded as "timeout"; one where a node died or no report appeared, as "failed". Neither is
+and recorded as "timeout"; one where a node died or no report appeared, as "failed" with
+tools/launch's one-line reason. Neither is
 hidden: the aggregation (turtlebot_recon.evaluation.benchmark) counts them as coverage 0 that
 never reached a milestone. --resume reuses runs whose run.json says ok; --report runs nothing and
 summarises the runs of the plan found on disk (a sweep made in several sittings, e.g. a few
@@ -25,7 +26,6 @@ import argparse
 import concurrent.futures as cf
 import json
 import os
-import re
 import shutil
 import signal
 import socket
@@ -55,7 +55,6 @@ WORLD_ROBOTS = {"maze": "turtlebot3_burger"}
 # back, far more per m^2 than the rooms the rule was set on (the burger needs ~900 s to 99 %).
 WORLD_BUDGETS = {"maze": 1800.0}
 OUT = TOP / "output" / "bench" / "explore"
-DIED = re.compile(r"\[([\w/-]+)\] process has died \[pid \d+, exit code (-?\d+)")
 SHUTDOWN_REASON = "shut down before the end"   # the evaluator's finished_reason when stopped from outside
 LIVE: dict = {}             # pid -> Popen of the launches running now (stopped on Ctrl-C)
 STOPPING = threading.Event()
@@ -111,7 +110,7 @@ def budgets_for(worlds: dict, args) -> dict:
 def free_port() -> int:
     """A TCP port free right now (the OS picks it), for one run's ROS master."""
     with socket.socket() as s:
-        s.bind(("localhost", 0))
+        s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
 
@@ -143,11 +142,13 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     ros_home.mkdir(parents=True)
     with lock:                                    # one port pick at a time within this process
         port = free_port()
-    env = {**os.environ, "ROS_MASTER_URI": f"http://localhost:{port}", "ROS_HOME": str(ros_home),
-           "ROS_LOG_DIR": str(ros_home / "log")}
-    cmd = ["roslaunch", "-p", str(port), "turtlebot_recon", "explore_sim.launch", f"world:={args.world_args[world]}",
+    env = {**os.environ, "ROS_MASTER_URI": f"http://127.0.0.1:{port}", "ROS_IP": "127.0.0.1",
+           "ROS_HOME": str(ros_home), "ROS_LOG_DIR": str(ros_home / "log")}
+    env.pop("ROS_HOSTNAME", None)
+    cmd = [str(TOP / "tools" / "launch"), "--tag", f"{world}/{strategy}/seed{seed}", "--done", "evaluator",
+           "--report", str(run_dir / "report.json"), "explore_sim.launch", f"world:={args.world_args[world]}",
            f"robot:={args.robot_of[world]}", f"strategy:={strategy}", f"seed:={seed}", f"budget:={budget:g}", "rtf:=0",
-           f"output:={run_dir}"]
+           f"output:={run_dir}", "end_with_evaluator:=false"]
     limit_s = args.startup_s + budget / args.min_rtf
     t0 = time.monotonic()
     with open(run_dir / "launch.log", "wb") as log:
@@ -164,7 +165,10 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
         finally:
             LIVE.pop(proc.pid, None)
     wall_s = time.monotonic() - t0
-    died = [f"{name} (exit {code})" for name, code in DIED.findall((run_dir / "launch.log").read_text(errors="replace"))]
+    # tools/launch's last line says how the launch ended ("failed: node X exited with status N: why")
+    lines = (run_dir / "launch.log").read_text(errors="replace").strip().splitlines()
+    last = lines[-1].split("] ", 1)[-1] if lines else ""
+    died = rc not in (0, 130) and not timed_out
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
     has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
     if STOPPING.is_set() and not has_report:
@@ -172,9 +176,9 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     elif timed_out and not has_report:
         status, reason = "timeout", f"stopped after the wall-clock limit of {limit_s:.0f} s"
     elif died:
-        status, reason = "failed", "node died: " + ", ".join(died)
+        status, reason = "failed", last
     elif not has_report:
-        status, reason = "failed", f"no report.json (roslaunch exit code {rc})"
+        status, reason = "failed", f"no report.json (launch exit status {rc})"
     else:         # the evaluator ended the run (if only just before the limit: a slow shutdown)
         status, reason = "ok", ""
     meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
@@ -316,9 +320,15 @@ def main(argv=None):
         figs["run_commits"] = run_commits
     figs.update({f"budget_s_{w}": b for w, b in budgets.items()})
     figs.update({f"robot_{w}": r for w, r in args.robot_of.items()})
-    write("explore", figs)
+    out = write("explore", figs)
     print(f"plots: {OUT}/coverage_<world>.png, {OUT}/time_to_99.png")
+    bad = [r for r in runs if not r.ok]
+    if bad:
+        print(f"[bench-explore] {len(bad)} of {len(runs)} runs did not finish (FAILED lines above); figures in {out}")
+        return 1
+    print(f"[bench-explore] done: {out}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

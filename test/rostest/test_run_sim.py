@@ -1,18 +1,32 @@
-"""`make run`'s launch file end to end: the wander drives the house, the mapper maps it, and
-map.pgm/map.yaml/report.json land in the output directory."""
+"""The `make` targets' launcher (tools/launch) end to end: `make wander`'s launch file drives the
+house and writes its report; a bad argument is refused before any node starts; a node that
+fails ends the run non-zero with the node's own message as the last line."""
 import json
 import os
 import subprocess
+from pathlib import Path
+
+TOP = Path(__file__).resolve().parents[2]
+RED = "\x1b[31m"
 
 
-def test_run_sim_writes_report(tmp_path):
-    port = "11477"   # a master of its own, away from any running roscore
-    env = dict(os.environ, ROS_MASTER_URI=f"http://localhost:{port}")
-    proc = subprocess.run(
-        ["roslaunch", "-p", port, "turtlebot_recon", "run_sim.launch", "world:=house",
-         "robot:=turtlebot3_burger", "rtf:=0", "duration:=30", f"output:={tmp_path}"],
-        env=env, timeout=300, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    tail = "\n".join(proc.stdout.splitlines()[-30:])
+def launch(*args, port: str, timeout: float = 300.0) -> subprocess.CompletedProcess:
+    """tools/launch with a master of its own on the loopback address (no host name needed)."""
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1")
+    env.pop("ROS_HOSTNAME", None)
+    return subprocess.run([str(TOP / "tools" / "launch"), *args], env=env, timeout=timeout,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def test_wander_writes_report_and_ends_quietly(tmp_path):
+    proc = launch("--tag", "wander", "--done", "scripted_drive", "--report", str(tmp_path / "report.json"),
+                  "run_sim.launch", "world:=house", "robot:=turtlebot3_burger", "rtf:=0", "duration:=30",
+                  f"output:={tmp_path}", "end_with_driver:=false", port="11477")
+    lines = proc.stdout.strip().splitlines()
+    tail = "\n".join(lines[-30:])
+    assert proc.returncode == 0, tail
+    assert lines[-1] == f"[wander] done: the report is in {tmp_path} (report.json and the files next to it)", tail
+    assert RED not in proc.stdout, "a good run printed a red line:\n" + tail
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["world"] == "house" and report["robot"] == "turtlebot3_burger", tail
     assert report["sim_time_s"] >= 30.0
@@ -23,3 +37,27 @@ def test_run_sim_writes_report(tmp_path):
     assert (tmp_path / "map.pgm").exists() and (tmp_path / "map.yaml").exists()
     assert report["map_precision_occupied"] >= 0.98 and report["map_precision_free"] >= 0.98
     assert report["mapped_free_m2"] > 5.0
+
+
+def test_bad_arguments_are_refused_before_any_node_starts(tmp_path):
+    bad_world = tmp_path / "w.yaml"
+    bad_world.write_text("image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    cases = [("world:=no_such_world", "WORLD=no_such_world refused", "house"),
+             (f"world:={bad_world}", f"WORLD={bad_world} refused", "nowhere.pgm"),
+             ("robot:=turtlebot4", "ROBOT=turtlebot4 refused", "turtlebot3_burger"),
+             ("strategy:=recn", "STRATEGY=recn refused", "explore_lite")]
+    for arg, refusal, choice in cases:
+        proc = launch("--done", "evaluator", "explore_sim.launch", arg, port="11478", timeout=60)
+        lines = proc.stdout.strip().splitlines()
+        assert proc.returncode == 2, proc.stdout
+        assert len(lines) == 1 and refusal in lines[0] and choice in lines[0], proc.stdout
+        assert "process[" not in proc.stdout     # nothing was started
+
+
+def test_a_failing_node_ends_the_run_with_its_own_message():
+    proc = launch("--tag", "sim", "sim.launch", "odom_slip:=-1", "camera_rate:=0", "rtf:=0", port="11479",
+                  timeout=120)
+    last = proc.stdout.strip().splitlines()[-1]
+    assert proc.returncode == 1, proc.stdout[-3000:]
+    assert last.startswith("[sim] failed: node sim_bridge exited with status 1:"), last
+    assert "odom_slip_std_sqrt_m: must be >= 0" in last, last
