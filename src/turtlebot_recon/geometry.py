@@ -13,8 +13,8 @@ from typing import Sequence, Tuple
 import numpy as np
 
 
-def wrap_angle(a: float) -> float:
-    """An angle (rad) wrapped into [-pi, pi)."""
+def wrap_angle(a):
+    """An angle (rad), or an array of them, wrapped into [-pi, pi) (pi itself -> -pi)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
@@ -31,17 +31,18 @@ def cell_to_xy(cell: Sequence[int], resolution: float, origin: Sequence[float]) 
 
 
 def points_to_cells(xy: np.ndarray, resolution: float, origin: Sequence[float]) -> Tuple[np.ndarray, np.ndarray]:
-    """Points (n, 2) m -> (rows, cols) int64 arrays of their cells (may lie outside the grid)."""
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    return (np.floor((xy[:, 1] - origin[1]) / resolution).astype(np.int64),
-            np.floor((xy[:, 0] - origin[0]) / resolution).astype(np.int64))
+    """Points (..., 2) as (x, y) m -> (rows, cols), int64 arrays of shape (...), of their cells
+    (may lie outside the grid)."""
+    xy = np.asarray(xy, dtype=float)
+    return (np.floor((xy[..., 1] - origin[1]) / resolution).astype(np.int64),
+            np.floor((xy[..., 0] - origin[0]) / resolution).astype(np.int64))
 
 
 def cells_to_points(cells: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
-    """Cells (n, 2) as (row, col) -> (n, 2) float array of their centres (x, y) m."""
-    cells = np.asarray(cells, dtype=float).reshape(-1, 2)
-    return np.stack([origin[0] + (cells[:, 1] + 0.5) * resolution,
-                     origin[1] + (cells[:, 0] + 0.5) * resolution], axis=1)
+    """Cells (..., 2) as (row, col) -> float array (..., 2) of their centres (x, y) m."""
+    cells = np.asarray(cells, dtype=float)
+    return np.stack([origin[0] + (cells[..., 1] + 0.5) * resolution,
+                     origin[1] + (cells[..., 0] + 0.5) * resolution], axis=-1)
 
 
 def inside(rows, cols, shape: Sequence[int]):

@@ -25,16 +25,13 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Optional, Sequence, Tuple
 
+from ..geometry import wrap_angle
+
 Pose = Tuple[float, float, float]
 FreeSpace = Callable[[float, float], bool]        # (x, y) map frame -> free and clear for the robot
 Clearance = Callable[[float], float]              # robot-frame bearing (rad) -> free distance (m)
 
 LEFT, CENTRE, RIGHT = 0, 1, 2                      # kobuki BumperEvent.bumper values
-
-
-def wrap_angle(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def bearings(count: int) -> list:

@@ -47,8 +47,9 @@ from dataclasses import dataclass
 from typing import Callable, List, Optional, Tuple
 
 from ..config import positive, require
+from ..geometry import wrap_angle
 from . import recovery
-from .recovery import CENTRE, LEFT, RIGHT, StuckWatchdog, wrap_angle
+from .recovery import CENTRE, LEFT, RIGHT, StuckWatchdog
 
 SPIN, EXPLORE, NUDGE, BUMPER_BACKOFF, DRIFT, RETURN_HOME, DONE = (
     "SPIN", "EXPLORE", "NUDGE", "BUMPER_BACKOFF", "DRIFT", "RETURN_HOME", "DONE")

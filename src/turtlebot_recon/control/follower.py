@@ -41,6 +41,7 @@ from typing import Optional
 import numpy as np
 
 from ..config import positive, require
+from ..geometry import inside, points_to_cells, wrap_angle
 from ..robot import RobotSpec
 from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
 
@@ -103,11 +104,6 @@ class FollowerSettings:
                 "must be in (0, 1]")
 
 
-def wrap_angle(a: float) -> float:
-    """Wrap to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 class _Track:
     """A polyline with arc-length bookkeeping: point at arc length s, closest point in a window."""
 
@@ -165,12 +161,11 @@ class _Grid:
         return _Grid(grid, res, (ox, oy))
 
     def lookup(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        fc = np.floor((np.asarray(xs, float) - self.ox) / self.res)
-        fr = np.floor((np.asarray(ys, float) - self.oy) / self.res)
-        rows, cols = self.cost.shape
-        inside = (fr >= 0) & (fr < rows) & (fc >= 0) & (fc < cols)
-        out = np.full(fc.shape, NO_INFORMATION, dtype=np.int32)
-        out[inside] = self.cost[fr[inside].astype(np.intp), fc[inside].astype(np.intp)]
+        """Costs at the finite points (xs, ys) m, map frame."""
+        rows, cols = points_to_cells(np.stack([xs, ys], axis=-1), self.res, (self.ox, self.oy))
+        on_grid = inside(rows, cols, self.cost.shape)
+        out = np.full(rows.shape, NO_INFORMATION, dtype=np.int32)
+        out[on_grid] = self.cost[rows[on_grid], cols[on_grid]]
         return out
 
 

@@ -34,6 +34,7 @@ import numpy as np
 from .. import _native
 from ..config import positive, require
 from ..exploration import tour
+from ..geometry import cells_to_points
 from ..planning.costmap import CostmapSettings, make_costmap
 from ..robot import RobotSpec
 from ..sim.world import World
@@ -142,9 +143,7 @@ class Oracle:
         return self._xy(cells)
 
     def _xy(self, cells) -> np.ndarray:
-        cells = np.asarray(cells).reshape(-1, 2)
-        return np.column_stack([self.world.origin[0] + (cells[:, 1] + 0.5) * self.res,
-                                self.world.origin[1] + (cells[:, 0] + 0.5) * self.res])
+        return cells_to_points(np.reshape(cells, (-1, 2)), self.res, self.world.origin)
 
     def sight(self, cell) -> np.ndarray:
         """Flat indices of the F cells seen from ``cell`` (row, col)."""

@@ -38,6 +38,7 @@ from scipy import ndimage
 
 from .. import _native
 from ..config import positive, require
+from ..geometry import cell_to_xy, inside
 from ..planning import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, dijkstra,
                         nearest_accessible)
 
@@ -183,18 +184,15 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                                     beams=settings.gain_beams,
                                     free_threshold=settings.free_threshold)
 
-    def to_xy(row: float, col: float) -> Point:
-        return (float(origin[0] + (col + 0.5) * resolution),
-                float(origin[1] + (row + 0.5) * resolution))
-
     frontiers = []
     for i, (cells, (goal_cell, reachable), gain) in enumerate(zip(clusters, goals, gains)):
         cells.setflags(write=False)
         nearest = cells[np.argmin(((cells - robot) ** 2).sum(axis=1))]
         frontiers.append(Frontier(
             id=i, cells=cells, size=len(cells), length_m=len(cells) * resolution,
-            centroid=to_xy(*cells.mean(axis=0)), closest=to_xy(*nearest),
-            goal=to_xy(*goal_cell), goal_cell=goal_cell, gain=int(gain),
+            centroid=cell_to_xy(cells.mean(axis=0), resolution, origin),
+            closest=cell_to_xy(nearest, resolution, origin),
+            goal=cell_to_xy(goal_cell, resolution, origin), goal_cell=goal_cell, gain=int(gain),
             path_cost_m=float(cost_to_come[goal_cell]) if reachable else math.inf,
             reachable=reachable))
     return frontiers
@@ -235,11 +233,9 @@ def _extend_into_unknown(cell: Cell, robot: np.ndarray, unknown: np.ndarray,
         return cell
     k = np.arange(1, steps + 1, dtype=float)[:, None]
     samples = np.floor(np.asarray(cell, dtype=float) + k * direction / norm + 0.5).astype(int)
-    rows, cols = unknown.shape
-    inside = ((samples[:, 0] >= 0) & (samples[:, 0] < rows) &
-              (samples[:, 1] >= 0) & (samples[:, 1] < cols))
-    ok = inside.copy()
-    ok[inside] = unknown[samples[inside, 0], samples[inside, 1]]
+    on_grid = inside(samples[:, 0], samples[:, 1], unknown.shape)
+    ok = on_grid.copy()
+    ok[on_grid] = unknown[samples[on_grid, 0], samples[on_grid, 1]]
     run = steps if ok.all() else int(np.argmin(ok))  # leading steps that stay in unknown
     if run == 0:
         return cell

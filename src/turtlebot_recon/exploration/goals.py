@@ -28,6 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..config import positive, require
+from ..geometry import cells_to_points, inside
 
 if TYPE_CHECKING:  # pragma: no cover
     from .frontiers import Frontier
@@ -126,8 +127,7 @@ class GoalBook:
     def start(self, frontier: "Frontier", ctx: "Context") -> ActiveGoal:
         """Count an attempt at ``frontier.goal``; it becomes the active goal (watchdog reset)."""
         self._starts.append(_xy(frontier.goal))
-        cells = np.asarray(frontier.cells, dtype=float).reshape(-1, 2)
-        points = _cells_to_xy(cells, ctx.resolution, ctx.origin)
+        points = cells_to_points(np.reshape(frontier.cells, (-1, 2)), ctx.resolution, ctx.origin)
         self.active = ActiveGoal(goal=_xy(frontier.goal), frontier_points=points,
                                  started_s=ctx.now_s)
         self.watchdog.reset()
@@ -237,8 +237,7 @@ class GoalBook:
         if current is None:
             return None
         r, c = ctx.xy_to_cell(current.goal)
-        rows, cols = ctx.costmap.shape
-        if not (0 <= r < rows and 0 <= c < cols) or ctx.costmap[r, c] > ctx.max_cost:
+        if not inside(r, c, ctx.costmap.shape) or ctx.costmap[r, c] > ctx.max_cost:
             return "blocked"
         if not math.isfinite(float(ctx.cost_to_come[r, c])):
             return "no path"
@@ -248,7 +247,7 @@ class GoalBook:
         now = [f.cells for f in frontiers if len(f.cells)]
         if not now:
             return "explored"
-        now_xy = _cells_to_xy(np.concatenate(now).astype(float), ctx.resolution, ctx.origin)
+        now_xy = cells_to_points(np.concatenate(now), ctx.resolution, ctx.origin)
         dist, _ = cKDTree(now_xy).query(old, k=1)
         remaining = float(np.mean(dist <= self.settings.reevaluate_radius_m + 1e-9))
         if remaining < max(self.settings.reevaluate_min_fraction, 1e-12):
@@ -279,10 +278,3 @@ def _count_near(points: List[Point], xy: Point, radius_m: float) -> int:
         return 0
     arr = np.asarray(points)
     return int(np.count_nonzero(np.hypot(arr[:, 0] - xy[0], arr[:, 1] - xy[1]) <= radius_m + 1e-9))
-
-
-def _cells_to_xy(cells: np.ndarray, resolution: float, origin: Sequence[float]) -> np.ndarray:
-    """(row, col) -> (x, y) of the cell centres (nav_msgs/OccupancyGrid order, unrotated)."""
-    cells = np.asarray(cells, dtype=float).reshape(-1, 2)
-    return np.stack([origin[0] + (cells[:, 1] + 0.5) * resolution,
-                     origin[1] + (cells[:, 0] + 0.5) * resolution], axis=1)

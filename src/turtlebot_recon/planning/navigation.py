@@ -13,7 +13,7 @@ from typing import Optional
 
 import numpy as np
 
-from .. import _native
+from .. import _native, geometry
 from ..config import positive, require
 from ..control import ControlInput, FollowerSettings, PurePursuit
 from ..robot import RobotSpec
@@ -48,16 +48,14 @@ class MapView:
     visits: Optional[np.ndarray] = None
 
     def cell(self, x: float, y: float) -> tuple:
-        return (int(math.floor((y - self.origin[1]) / self.resolution)),
-                int(math.floor((x - self.origin[0]) / self.resolution)))
+        return geometry.xy_to_cell((x, y), self.resolution, self.origin)
 
     def inside(self, cell: tuple) -> bool:
-        return 0 <= cell[0] < self.costmap.shape[0] and 0 <= cell[1] < self.costmap.shape[1]
+        return geometry.inside(cell[0], cell[1], self.costmap.shape)
 
     def centre(self, cells: np.ndarray) -> np.ndarray:
         """(x, y) of cell centres for an int (n, 2) array of (row, col)."""
-        return np.column_stack([self.origin[0] + (cells[:, 1] + 0.5) * self.resolution,
-                                self.origin[1] + (cells[:, 0] + 0.5) * self.resolution])
+        return geometry.cells_to_points(cells, self.resolution, self.origin)
 
 
 class Navigation:
@@ -102,9 +100,9 @@ class Navigation:
         costmap = make_costmap(occupancy, resolution, self.costmap_settings)
         self.map = MapView(occupancy, costmap, resolution, tuple(origin), visits)
         if self.status == "active" and len(self.dense_xy):
-            cells = np.array([self.map.cell(x, y) for x, y in self.dense_xy])
-            ok = ((cells >= 0) & (cells < costmap.shape)).all(axis=1)
-            if not ok.all() or (costmap[cells[:, 0], cells[:, 1]] >= INSCRIBED).any():
+            rows, cols = geometry.points_to_cells(self.dense_xy, resolution, origin)
+            if not geometry.inside(rows, cols, costmap.shape).all() \
+                    or (costmap[rows, cols] >= INSCRIBED).any():
                 self._need_plan = True      # the map changed along the path
 
     # ------------------------------------------------------------------ loop

@@ -12,12 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry import wrap_angle
 from ..robot import RobotSpec
-
-
-def wrap_angle(a: float) -> float:
-    """Wrap to [-pi, pi)."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @dataclass

@@ -28,8 +28,9 @@ from scipy.spatial.transform import Rotation
 
 from .. import _native
 from ..config import positive, require
+from ..geometry import inside, wrap_angle
 from ..robot import RobotSpec
-from .drive import DiffDrive, WheelOdometry, wrap_angle
+from .drive import DiffDrive, WheelOdometry
 from .markers import full_scale, marker_image
 from .world import World, WorldError
 
@@ -244,8 +245,7 @@ class Simulator:
         Most steps end here; only near walls does PyBullet's exact contact query run.
         """
         r, c = self.world.cell(pose[0], pose[1])
-        rows, cols = self._clearance.shape
-        if not (0 <= r < rows and 0 <= c < cols):
+        if not inside(r, c, self._clearance.shape):
             return False
         slack = self.world.resolution * 0.7072   # the point may sit anywhere in its cell
         return self._clearance[r, c] - slack >= self.robot.radius_m + margin_m

@@ -16,6 +16,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..config import load_yaml, ConfigError
+from ..geometry import cell_to_xy, inside, xy_to_cell
 
 log = logging.getLogger(__name__)
 
@@ -62,13 +63,11 @@ class World:
 
     def cell(self, x: float, y: float) -> tuple:
         """(row, col) of the cell holding world point (x, y); may be outside the grid."""
-        return (int(math.floor((y - self.origin[1]) / self.resolution)),
-                int(math.floor((x - self.origin[0]) / self.resolution)))
+        return xy_to_cell((x, y), self.resolution, self.origin)
 
     def is_free(self, x: float, y: float) -> bool:
         r, c = self.cell(x, y)
-        rows, cols = self.free.shape
-        return 0 <= r < rows and 0 <= c < cols and bool(self.free[r, c])
+        return inside(r, c, self.free.shape) and bool(self.free[r, c])
 
     def clearance(self) -> np.ndarray:
         """Distance (m) from each free cell centre to the nearest solid cell's edge; 0 on solid."""
@@ -182,8 +181,7 @@ def auto_start(world: World, src: Path, clearance_m: float = START_CLEARANCE_M) 
     rows, cols = np.nonzero(biggest)
     centre = (np.array(world.free.shape) - 1) / 2.0
     k = int(np.argmin((rows - centre[0]) ** 2 + (cols - centre[1]) ** 2))
-    res = world.resolution
-    return (float(world.origin[0] + (cols[k] + 0.5) * res), float(world.origin[1] + (rows[k] + 0.5) * res), 0.0)
+    return (*cell_to_xy((rows[k], cols[k]), world.resolution, world.origin), 0.0)
 
 
 def _tag(world: World, i: int, t, src: Path) -> Tag:

@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 import yaml
 
+from .. import geometry
+
 FREE, OCCUPIED, UNKNOWN = 254, 0, 205      # map_saver pixel values
 RES = 0.05                                  # m per pixel
 WALL_HEIGHT = 0.5                           # m
@@ -50,10 +52,10 @@ class Canvas:
         h, m, r = self.img.shape[0], self.margin, self.res
         cols = np.arange(max(0, int((x + m - radius) / r) - 1), int((x + m + radius) / r) + 2)
         rows = np.arange(max(0, h - int((y + m + radius) / r) - 2), h - int((y + m - radius) / r) + 1)
-        px, py = (cols + 0.5) * r - m, (h - rows - 0.5) * r - m
+        px, py = px_to_world(rows[:, None], cols[None, :], self.img.shape, r, (-m, -m))
         # strictly inside (with float slack): a radius of whole pixels would otherwise grow
         # one-pixel nubs at N, E, S and W
-        inside = (px[None, :] - x) ** 2 + (py[:, None] - y) ** 2 < (radius - 1e-6) ** 2
+        inside = (px - x) ** 2 + (py - y) ** 2 < (radius - 1e-6) ** 2
         self.img[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1][inside] = value
 
     def hwall(self, y, x0, x1, t=0.1):
@@ -82,14 +84,17 @@ def free_mask(image, meta=None):
 
 
 def world_to_px(x, y, shape, res, origin):
-    """(row, col) integer arrays of the pixels containing world points (x, y)."""
-    col = np.floor((np.asarray(x) - origin[0]) / res).astype(int)
-    row = shape[0] - 1 - np.floor((np.asarray(y) - origin[1]) / res).astype(int)
-    return row, col
+    """(row, col) integer arrays of the pixels containing world points (x, y): the grid cells
+    (row 0 at the bottom), rows flipped to the image's (row 0 at the top)."""
+    rows, cols = geometry.points_to_cells(np.stack(np.broadcast_arrays(x, y), axis=-1), res, origin)
+    return shape[0] - 1 - rows, cols
 
 
 def px_to_world(row, col, shape, res, origin):
-    return origin[0] + (np.asarray(col) + 0.5) * res, origin[1] + (shape[0] - np.asarray(row) - 0.5) * res
+    """(x, y) arrays of the centres (m) of pixels (row, col): the grid cells (H - 1 - row, col)."""
+    cells = np.stack(np.broadcast_arrays(shape[0] - 1 - np.asarray(row), col), axis=-1)
+    xy = geometry.cells_to_points(cells, res, origin)
+    return xy[..., 0], xy[..., 1]
 
 
 def clearance(free, res):
@@ -155,8 +160,8 @@ def check_tag(free, res, origin, x, y, yaw, size, support=None, reach=None, dept
     def px(depths):   # depth offsets a quarter pixel off the edges, so none is ambiguous
         pts = np.array([x, y]) + depths[:, None, None] * n + along[None, :, None] * t
         r, c = world_to_px(pts[..., 0], pts[..., 1], free.shape, res, origin)
-        inside = (r >= 0) & (r < free.shape[0]) & (c >= 0) & (c < free.shape[1])
-        return np.clip(r, 0, free.shape[0] - 1), np.clip(c, 0, free.shape[1] - 1), inside
+        on_grid = geometry.inside(r, c, free.shape)
+        return np.clip(r, 0, free.shape[0] - 1), np.clip(c, 0, free.shape[1] - 1), on_grid
 
     r, c, inside = px(-np.arange(1, 8, 2) * res / 4)           # 0.0125 .. 0.0875 m behind
     if (free[r, c] & inside).any():

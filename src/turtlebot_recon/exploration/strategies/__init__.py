@@ -39,6 +39,7 @@ from typing import Dict, List, Optional, Protocol, Sequence, Tuple
 import numpy as np
 from scipy import ndimage
 
+from ... import geometry
 from ...config import ConfigError, from_dict
 from ..frontiers import Frontier
 from ..goals import GoalBook, GoalBookSettings
@@ -72,12 +73,10 @@ class Context:
     priority_goals: Tuple[Point, ...] = ()  # points to visit before frontiers (seed 000: tags)
 
     def xy_to_cell(self, xy: Sequence[float]) -> Cell:
-        return (int(math.floor((xy[1] - self.origin[1]) / self.resolution)),
-                int(math.floor((xy[0] - self.origin[0]) / self.resolution)))
+        return geometry.xy_to_cell(xy, self.resolution, self.origin)
 
     def cell_to_xy(self, cell: Sequence[int]) -> Point:
-        return (float(self.origin[0] + (cell[1] + 0.5) * self.resolution),
-                float(self.origin[1] + (cell[0] + 0.5) * self.resolution))
+        return geometry.cell_to_xy(cell, self.resolution, self.origin)
 
     @cached_property
     def reachable(self) -> np.ndarray:
@@ -93,8 +92,7 @@ class Context:
 
     def goal_ok(self, cell: Sequence[int]) -> bool:
         r, c = int(cell[0]), int(cell[1])
-        rows, cols = self.reachable.shape
-        return 0 <= r < rows and 0 <= c < cols and bool(self.reachable[r, c])
+        return geometry.inside(r, c, self.reachable.shape) and bool(self.reachable[r, c])
 
     def snap(self, xy: Sequence[float], radius_m: float) -> Optional[Cell]:
         """The reachable cell nearest ``xy`` (its centre within radius_m), or None."""

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, List, Sequence, Tuple
 
 import numpy as np
 
+from ...geometry import wrap_angle
 from ..frontiers import Frontier
 from ..goals import GoalBook
 
@@ -47,7 +48,7 @@ def heading_error(ctx: Context, xy: Sequence[float]) -> float:
     if math.hypot(dx, dy) < 1e-9:
         return 0.0
     err = math.atan2(dy, dx) - ctx.robot_yaw
-    return abs(math.atan2(math.sin(err), math.cos(err)))
+    return abs(wrap_angle(err))
 
 
 def window_around(grid: np.ndarray, cell: Cell, k: int) -> np.ndarray:

@@ -9,6 +9,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ...config import positive, require
+from ...geometry import cells_to_points
 from ..frontiers import Frontier
 from ..goals import GoalBook
 from .common import reachable_only, with_goal
@@ -87,8 +88,7 @@ class Density:
         if len(cells) == 0:
             return cells, np.zeros(0)
         neighbours = _box_count(mask, s.frontier_radius_cells)[mask] - 1    # not itself
-        xy = np.stack([ctx.origin[0] + (cells[:, 1] + 0.5) * ctx.resolution,
-                       ctx.origin[1] + (cells[:, 0] + 0.5) * ctx.resolution], axis=1)
+        xy = cells_to_points(cells, ctx.resolution, ctx.origin)
         dist = np.hypot(xy[:, 0] - ctx.robot_xy[0], xy[:, 1] - ctx.robot_xy[1])
         failures = book.failure_points()
         nearby = np.zeros(len(cells))
