@@ -1,11 +1,21 @@
-"""Run output: report.json / report.md (DESIGN §6 keys) and the coverage and map plots."""
+"""Run output: report.json / report.md (DESIGN §6 keys), the coverage and map plots, and the
+evaluator's core: its run log, the report of a run and the run directory (report.json last)."""
 import json
+import math
+import os
 
 import cv2
 import numpy as np
+import pytest
 
-from turtlebot_recon.evaluation import plot_coverage, plot_map, write_report
-from turtlebot_recon.evaluation.report import REPORT_KEYS, map_figure_size_px
+from turtlebot_recon.evaluation import (CoverageTracker, plot_coverage, plot_map, reachable_free_space,
+                                        write_report)
+from turtlebot_recon.evaluation import report as report_module
+from turtlebot_recon.evaluation.evaluator import (RUN_FILES, EvaluatorSettings, FinalMap, RunLog, run_report,
+                                                  summary_line, write_run)
+from turtlebot_recon.evaluation.report import REPORT_KEYS, full_report, map_figure_size_px, markdown
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.sim import load_world
 
 DESIGN_KEYS = [
     "world", "robot", "strategy", "seed", "coverage_final", "time_to_90_s", "time_to_95_s",
@@ -115,3 +125,185 @@ def test_plot_map_png(tmp_path):
     assert count_colour(bare, TAB_BLUE) == 0
     # A tall map: 200 rows x 50 cols -> 900 px high, round(50 * 4.5) = 225 px wide.
     assert map_figure_size_px((200, 50)) == (225 + 150, 900 + 120)
+
+
+# ------------------------------------------------------------------ report.json: last, whole
+
+def spy_on_replace(monkeypatch, on_replace):
+    """Call ``on_replace(src, dst)`` just before each os.replace (the file is not there yet)."""
+    real = os.replace
+
+    def replace(src, dst, *args, **kwargs):
+        on_replace(str(src), str(dst))
+        return real(src, dst, *args, **kwargs)
+    monkeypatch.setattr(report_module.os, "replace", replace)
+
+
+def test_write_report_writes_report_json_last_and_whole(tmp_path, monkeypatch):
+    report = {"world": "house", "robot": "turtlebot2", "coverage_final": 0.5, "note": "x" * 10_000}
+    (tmp_path / "report.json").write_text('{"world": "old run"}\n')
+    seen = []
+
+    def at_replace(src, dst):
+        # report.md is complete and the new report.json is still a temporary file beside it.
+        assert os.path.dirname(src) == str(tmp_path) and dst == str(tmp_path / "report.json")
+        assert (tmp_path / "report.md").read_text() == markdown(report)
+        assert json.loads((tmp_path / "report.json").read_text()) == {"world": "old run"}
+        assert json.loads(open(src).read()) == full_report(report)
+        seen.append(sorted(os.listdir(tmp_path)))
+    spy_on_replace(monkeypatch, at_replace)
+    json_path, md_path = write_report(tmp_path, report)
+    assert len(seen) == 1 and len(seen[0]) == 3                       # json, md and the temporary
+    assert sorted(os.listdir(tmp_path)) == ["report.json", "report.md"]   # the temporary is gone
+    assert json.loads(json_path.read_text()) == full_report(report)
+    assert md_path.stat().st_mtime_ns <= json_path.stat().st_mtime_ns
+    assert oct(json_path.stat().st_mode & 0o777) == oct(md_path.stat().st_mode & 0o777)   # as any file
+
+
+def test_a_failed_write_leaves_no_partial_report_json(tmp_path, monkeypatch):
+    def fail(src, dst):
+        raise OSError("disk full")
+    spy_on_replace(monkeypatch, fail)
+    with pytest.raises(OSError, match="disk full"):
+        write_report(tmp_path, {"world": "house"})
+    assert sorted(os.listdir(tmp_path)) == ["report.md"]                 # no report.json, no temporary
+    # A value JSON cannot hold fails before any file is written.
+    monkeypatch.undo()
+    with pytest.raises(TypeError):
+        write_report(tmp_path / "bad", {"world": object()})
+    assert not (tmp_path / "bad").exists() or os.listdir(tmp_path / "bad") == []
+
+
+# ------------------------------------------------------------------ the evaluator's core
+
+START = (1.0, 1.5, 0.0)       # room_world's start pose: map frame = world - (1, 1.5)
+
+
+@pytest.fixture
+def run(room_world):
+    """A run in the 4 x 3 m room (F = its 4800 free cells) with a hand-made log:
+    truth  t = 9 (1, 1.5) before the clock starts at t = 10; t = 10 there; t = 11 (1.01, 1.5),
+           0.01 m on, too close to keep (path_step_m 0.02) but driven; t = 12 (2, 1.5);
+           t = 13 (2, 2.5). distance 0.01 + 0.99 + 1 = 2 m; path kept: t 9, 12, 13, in the
+           map frame (t - 10, x - 1, y - 1.5): (-1, 0, 0), (2, 1, 0), (3, 1, 1).
+    collision at t = 13.5 (count 0 -> 1) at the last true position (2, 2.5): (1, 1) m, 3.5 s.
+    goals  (1, 0), (1, 0) again (not counted), (1, 1): 2.
+    ATE    estimate (0.03, 0.04) vs truth (1, 1.5) -> (0, 0): 0.05^2; (1, 0) vs (2, 1.5) -> (1, 0):
+           0. RMSE sqrt(0.0025 / 2) = 0.035355 m.
+    coverage samples: half the room known at 1 s (0.5), all at 3 s (1.0): 90/95/99 % at 3 s.
+    final map: the world grid with column 42 of the room marked occupied and column 43 unknown."""
+    world = load_world(room_world)
+    robot = load_robot("turtlebot3_burger")
+    coverage = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
+    log = RunLog(world.start, 0.02)
+    log.truth(9.0, 1.0, 1.5)
+    assert log.start_clock(10.0) and not log.start_clock(11.0)
+    for t, x, y in ((10.0, 1.0, 1.5), (11.0, 1.01, 1.5), (12.0, 2.0, 1.5), (13.0, 2.0, 2.5)):
+        log.truth(t, x, y)
+    assert log.collision_count(0, 12.5) is None
+    assert log.collision_count(1, 13.5) == (1.0, 1.0, 3.5)
+    assert log.collision_count(1, 14.0) is None
+    for g in ((1.0, 0.0), (1.0, 0.0), (1.0, 1.0)):
+        log.goal(g)
+    log.ate_sample((0.03, 0.04), (1.0, 1.5))
+    log.ate_sample((1.0, 0.0), (2.0, 1.5))
+    occ = np.where(world.free, 0, 100).astype(np.int8)
+    origin = (world.origin[0] - START[0], world.origin[1] - START[1])
+    half = occ.copy()
+    half[:, 42:] = -1
+    coverage.update(1.0, half, 0.05, origin)
+    coverage.update(3.0, occ, 0.05, origin)
+    occ[2:62, 42], occ[2:62, 43] = 100, -1          # rows 2..61: the room's
+    final = FinalMap(occ, 0.05, origin, yaml_path="/runs/x/map.yaml")
+    return world, robot, coverage, log, final
+
+
+def test_run_log_keeps_the_path_on_the_report_clock(run):
+    _, _, _, log, _ = run
+    assert log.distance_m == pytest.approx(2.0)
+    np.testing.assert_allclose(log.path_in_map(), [[-1.0, 0.0, 0.0], [2.0, 1.0, 0.0], [3.0, 1.0, 1.0]], atol=1e-12)
+    assert log.goals == [(1.0, 0.0), (1.0, 1.0)] and log.collisions == 1
+    assert log.ate_m() == pytest.approx(math.sqrt(0.0025 / 2))
+    assert RunLog(START, 0.02).ate_m() is None
+
+
+def test_run_report_from_the_log_coverage_and_map(run):
+    world, robot, coverage, log, final = run
+    report = run_report(EvaluatorSettings(seed=7), world, robot, coverage, log, end_s=20.0, wall_time_s=4.0,
+                        reason="no frontiers", strategy="recon", final_map=final)
+    # Map precision: occupied = the 64 x 84 - 4800 = 576 wall cells (solid: precise) and column
+    # 42's 60 room cells, of which rows 2, 3, 60, 61 lie within 1.5 cells of a wall (clearance
+    # 0.5 or 1.5 cells): 580 / 636. The 4800 - 120 cells marked free are all truly free.
+    # Seen: all of F known but column 43 (60 cells), column 42 occupied: 0.9875 and 0.0125.
+    assert report == {
+        "world": "room", "robot": "turtlebot3_burger", "seed": 7, "strategy": "recon",
+        "coverage_final": 1.0, "time_to_90_s": 3.0, "time_to_95_s": 3.0, "time_to_99_s": 3.0,
+        "map_precision_occupied": pytest.approx(580 / 636), "map_precision_free": 1.0,
+        "coverage_seen_final": pytest.approx(0.9875), "F_marked_occupied": pytest.approx(0.0125),
+        "ate_m": pytest.approx(0.035355, abs=1e-6),
+        "tags_placed": None, "tags_confirmed": None, "tag_recall": None, "tag_error_median_m": None,
+        "tag_error_max_m": None, "false_tags": None,
+        "distance_m": 2.0, "collisions": 1,
+        "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
+        "distance_to_99_m": 2.0,          # along the kept points until t = 3 s: 1 + 1
+        "F_cells": 4800, "F_m2": 12.0, "F_robot_radius_m": 0.105, "goals": 2, "ate_samples": 2,
+        "sim_start_s": 10.0, "map": "/runs/x/map.yaml", "collisions_at": [(1.0, 1.0, 3.5)],
+    }
+    assert "room · turtlebot3_burger · recon | coverage 100.0 % (90 % at 3 s" in summary_line(report)
+    # Without a map: precision and seen unknown (null), no map file.
+    bare = run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 0.0, "shut down", None)
+    assert "coverage_seen_final" not in bare and bare["map"] is None and bare["rtf"] is None
+    assert full_report(bare)["map_precision_free"] is None
+    with pytest.raises(ValueError, match="clock never started"):
+        run_report(EvaluatorSettings(), world, robot, coverage, RunLog(START, 0.02), 1.0, 1.0, "x", None)
+
+
+def check_run_file(path):
+    """Whether a run file is whole: images decode, CSVs parse under their header, Markdown ends
+    with report.md's closing line, JSON parses. Returns what it read."""
+    name = os.path.basename(path)
+    if name.endswith(".png"):
+        img = cv2.imread(path, cv2.IMREAD_COLOR)
+        assert img is not None, name
+        return img.shape
+    if name.endswith(".csv"):
+        with open(path) as f:
+            header = f.readline().strip()
+        return header, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2).shape
+    if name.endswith(".md"):
+        text = open(path).read()
+        assert text.endswith("(null in report.json).\n"), name
+        return len(text)
+    return json.loads(open(path).read())
+
+
+def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypatch):
+    world, robot, coverage, log, final = run
+    report = run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final)
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "report.json").write_text('{"world": "an earlier run"}\n')   # removed before anything is written
+    at_replace = {}
+
+    def snapshot(src, dst):
+        if os.path.basename(dst) == "report.json":
+            assert not os.path.exists(dst)
+            at_replace.update({n: check_run_file(str(out / n)) for n in os.listdir(out) if n != os.path.basename(src)})
+    spy_on_replace(monkeypatch, snapshot)
+    json_path = write_run(out, report, coverage, log, final)
+    assert json_path == out / "report.json"
+    # When report.json appears, every other file is there and whole.
+    assert at_replace == {
+        "coverage.csv": ("sim_time_s,coverage", (2, 2)),
+        "path.csv": ("sim_time_s,x_m,y_m", (3, 3)),
+        "coverage.png": (450, 800, 3),
+        "map.png": (*map_figure_size_px(final.occupancy.shape)[::-1], 3),
+        "report.md": len(markdown(report)),
+    }
+    assert sorted(os.listdir(out)) == sorted(RUN_FILES)
+    assert json.loads(json_path.read_text()) == full_report(report)
+    np.testing.assert_allclose(np.loadtxt(out / "path.csv", delimiter=",", skiprows=1), log.path_in_map(), atol=1e-3)
+    # No final map and no coverage sample: no map.png, no coverage.png; report.json still last.
+    empty = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
+    write_run(tmp_path / "bare", report, empty, RunLog(START, 0.02))
+    assert sorted(os.listdir(tmp_path / "bare")) == ["coverage.csv", "path.csv", "report.json", "report.md"]

@@ -1,9 +1,14 @@
 """Run output (DESIGN §6, issue 5 item 6): report.json / report.md and the coverage and map
-plots. Plots are drawn on matplotlib's Agg canvas (headless)."""
+plots. Plots are drawn on matplotlib's Agg canvas (headless).
+
+report.json is written last and atomically (``write_report``), so a run directory is complete
+once report.json exists: whoever watches for it never reads a part of it, nor misses a file
+written with it."""
 from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -99,14 +104,34 @@ def markdown(report: dict) -> str:
 
 
 def write_report(out_dir: str | Path, report: dict) -> tuple:
-    """Write ``out_dir``/report.json (DESIGN §6 keys, missing ones null, extra keys kept) and
-    ``out_dir``/report.md; return their paths."""
+    """Write ``out_dir``/report.md, then ``out_dir``/report.json (DESIGN §6 keys, missing ones
+    null, extra keys kept) atomically (``write_atomic``), so report.json appears whole and after
+    report.md; return their paths. Write every other file of the run before calling this."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     json_path, md_path = out_dir / "report.json", out_dir / "report.md"
-    json_path.write_text(json.dumps(full_report(report), indent=2, allow_nan=False) + "\n")
+    text = json.dumps(full_report(report), indent=2, allow_nan=False) + "\n"   # fails before any write
     md_path.write_text(markdown(report))
+    write_atomic(json_path, text)
     return json_path, md_path
+
+
+def write_atomic(path: str | Path, text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file in the same directory, flushed to
+    disk, then renamed over ``path`` (os.replace): a reader sees no file or the whole of it,
+    never a part. On failure the temporary file is removed and ``path`` is left as it was."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")   # same file system: the rename is atomic
+    try:
+        with open(tmp, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
 
 
 def _figure(width_px: int, height_px: int):

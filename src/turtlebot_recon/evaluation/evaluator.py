@@ -1,0 +1,218 @@
+"""The evaluator's core (``scripts/evaluator`` is its rospy node): its settings, what it collects
+during a run (``RunLog``), the run's report (``run_report``: DESIGN §6 keys, then extras) and
+the run directory (``write_run``, report.json last). ROS-free: the node supplies the times,
+the messages' contents, the final map and the explorer's strategy name.
+
+Frames: the ground truth is in the world frame; the robot's map frame is its start pose
+(``world.start``), so a world point p is R(-yaw0) (p - t0) in the map frame (``world_to_map``).
+Clock: sim seconds on the ROS clock; the report's times count from the explorer's start
+(``RunLog.t0_s``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..config import positive, require
+from ..robot import RobotSpec
+from ..sim.world import World
+from .coverage import CoverageTracker, world_to_map
+from .metrics import distance_until, map_precision
+from .report import plot_coverage, plot_map, write_report
+
+# The files of a run directory that write_run writes; the mapper saves map.pgm / map.yaml there
+# before. report.json comes last: the directory is complete once it exists.
+RUN_FILES = ("coverage.csv", "path.csv", "coverage.png", "map.png", "report.md", "report.json")
+
+
+@dataclass(frozen=True)
+class EvaluatorSettings:
+    """config/evaluator.yaml."""
+    world: str = "house"                 # a name in worlds/ or a world YAML path (as sim_bridge's)
+    robot: str = "turtlebot3_waffle_pi"  # F uses its radius_m and lidar range
+    output_dir: str = ""                 # run directory; '' = $ROS_HOME/explore_run
+    map_frame: str = "odom"
+    base_frame: str = "base_footprint"
+    sample_period_s: float = 2.0         # s (sim) between coverage samples
+    ate_period_s: float = 1.0            # s (sim) between ATE samples (DESIGN §6: 1 Hz)
+    budget_s: float = 1800.0             # s (sim) from the explorer's start; then end the run; 0 = none
+    seed: int = 0                        # the run's seed, for the report
+    explorer_node: str = "explorer"      # its ~strategy is the run's strategy (relative: this namespace)
+    start_timeout_wall_s: float = 60.0   # s (wall) to wait for the explorer before starting the clock
+    save_map_timeout_s: float = 10.0     # s (wall) for /mapper/save_map
+    path_step_m: float = 0.02            # m, the true path keeps a point this far from the last
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "sample_period_s", "ate_period_s", "start_timeout_wall_s",
+                 "save_map_timeout_s", "path_step_m")
+        require(math.isfinite(self.budget_s) and self.budget_s >= 0, src, "budget_s", "must be >= 0 (0: none)")
+
+
+@dataclass(frozen=True, eq=False)
+class FinalMap:
+    """The robot's map at the end of a run, in its map frame."""
+    occupancy: np.ndarray               # int8 ROS values (-1 unknown, 0..100), row 0 at origin
+    resolution: float                   # m per cell
+    origin: tuple                       # (x, y) m of cell (0, 0)'s outer corner
+    yaml_path: Optional[str] = None     # the mapper's saved map; None: the latest /map message
+
+
+class RunLog:
+    """What the evaluator collects during a run: the clock's start, the true path and the
+    distance driven, the ATE samples, the collisions and the goals. Times: sim s on the ROS
+    clock (absolute); the node calls it from its callbacks, under its lock."""
+
+    def __init__(self, world_start: tuple, path_step_m: float):
+        self.start = tuple(world_start)        # the map frame's pose in the world (x, y, yaw)
+        self.path_step_m = path_step_m
+        self.t0_s: Optional[float] = None      # the explorer's start: zero of the report's clock
+        self.first_truth_s: Optional[float] = None
+        self.path: list = []                   # (t s, x m, y m) world, a point every path_step_m
+        self.distance_m = 0.0                  # along every ground-truth sample, not only path's
+        self.last_xy: Optional[tuple] = None   # the latest true position (world, m)
+        self.ate_sq_m2: list = []              # squared position errors, one per ATE sample
+        self.collisions = 0                    # the simulator's contact count
+        self.collisions_at: list = []          # (x m, y m in the map frame, t s on the report's clock)
+        self.goals: list = []                  # (x, y) m in the map frame, in the order sent
+
+    def start_clock(self, t0_s: float) -> bool:
+        """Start the report's clock at sim time ``t0_s`` unless started; whether it started now."""
+        if self.t0_s is not None:
+            return False
+        self.t0_s = float(t0_s)
+        return True
+
+    def elapsed(self, t_s: float) -> float:
+        """Sim time ``t_s`` on the report's clock (s since the explorer's start, or since 0)."""
+        return t_s - (self.t0_s or 0.0)
+
+    def truth(self, t_s: float, x: float, y: float) -> None:
+        """A ground-truth position (world, m) at sim time ``t_s``."""
+        if self.first_truth_s is None:
+            self.first_truth_s = t_s
+        if self.last_xy is not None:
+            self.distance_m += math.hypot(x - self.last_xy[0], y - self.last_xy[1])
+        self.last_xy = (x, y)
+        if not self.path or math.hypot(x - self.path[-1][1], y - self.path[-1][2]) >= self.path_step_m:
+            self.path.append((t_s, x, y))
+
+    def collision_count(self, count: int, t_s: float) -> Optional[tuple]:
+        """The simulator's contact count at sim time ``t_s``; where (map frame, m) and when (the
+        report's clock, s) a new contact happened, rounded as report.json keeps it, else None.
+        Several new contacts between two messages are one entry, at the latest true position."""
+        new = None
+        if count > self.collisions and self.last_xy is not None:
+            xy = world_to_map(np.array([self.last_xy]), self.start)[0]
+            new = (round(float(xy[0]), 2), round(float(xy[1]), 2), round(self.elapsed(t_s), 1))
+            self.collisions_at.append(new)
+        self.collisions = int(count)
+        return new
+
+    def goal(self, xy: tuple) -> None:
+        """A goal sent by the explorer (map frame, m); a repeat of the last one is not counted."""
+        if not self.goals or math.dist(xy, self.goals[-1]) > 1e-3:
+            self.goals.append((float(xy[0]), float(xy[1])))
+
+    def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple) -> None:
+        """One ATE sample: the estimated base position (map frame) vs the true one (world), m."""
+        true_xy = world_to_map(np.array([true_world_xy], float), self.start)[0]
+        self.ate_sq_m2.append(float((estimate_xy[0] - true_xy[0]) ** 2 + (estimate_xy[1] - true_xy[1]) ** 2))
+
+    def ate_m(self) -> Optional[float]:
+        """The RMSE of the ATE samples (m); None without one."""
+        return math.sqrt(float(np.mean(self.ate_sq_m2))) if self.ate_sq_m2 else None
+
+    def path_in_map(self) -> np.ndarray:
+        """(n, 3) float: the true path as path.csv holds it, sim time on the report's clock (s,
+        negative before the explorer's start) and x, y in the map frame (m)."""
+        p = np.asarray(self.path, float).reshape(-1, 3)
+        return np.column_stack([p[:, 0] - (self.t0_s or 0.0), world_to_map(p[:, 1:], self.start)])
+
+
+def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, coverage: CoverageTracker,
+               log: RunLog, end_s: float, wall_time_s: float, reason: str, strategy: Optional[str],
+               final_map: Optional[FinalMap] = None) -> dict:
+    """report.json's content: DESIGN §6 keys (tags null: not measured yet), then extras.
+    ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
+    ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
+    ValueError if the clock never started (the node starts it at the latest when finishing)."""
+    if log.t0_s is None:
+        raise ValueError("run_report: the run's clock never started (RunLog.start_clock)")
+    sim_s = log.elapsed(end_s)
+    report = {"world": world.name, "robot": robot.name, "seed": settings.seed, "strategy": strategy}
+    report.update(coverage.summary())
+    if final_map is not None:
+        m = final_map
+        p = map_precision(m.occupancy, m.resolution, m.origin, world, world.start)
+        known, occupied = coverage.seen(m.occupancy, m.resolution, m.origin)
+        report.update(map_precision_occupied=p["map_precision_occupied"], map_precision_free=p["map_precision_free"],
+                      coverage_seen_final=known, F_marked_occupied=occupied)
+    d99 = distance_until(log.path_in_map(), report["time_to_99_s"])
+    report.update({
+        "ate_m": log.ate_m(),
+        "tags_placed": None, "tags_confirmed": None, "tag_recall": None, "tag_error_median_m": None,
+        "tag_error_max_m": None, "false_tags": None,
+        "distance_m": round(log.distance_m, 3), "collisions": log.collisions,
+        "sim_time_s": round(sim_s, 2), "wall_time_s": round(wall_time_s, 2),
+        "rtf": round(sim_s / wall_time_s, 2) if wall_time_s > 0 else None, "finished_reason": reason,
+        # extra keys
+        "distance_to_99_m": None if d99 is None else round(d99, 3),   # along the recorded path
+        "F_cells": coverage.cells, "F_m2": round(coverage.area_m2, 2),
+        "F_robot_radius_m": robot.radius_m, "goals": len(log.goals),
+        "ate_samples": len(log.ate_sq_m2), "sim_start_s": round(log.t0_s, 2),
+        "map": None if final_map is None else final_map.yaml_path,
+        "collisions_at": list(log.collisions_at),   # (x, y) m in the map frame and t s (as time_to_*) of each
+    })
+    return report
+
+
+def title(report: dict) -> str:
+    """The plots' title: world · robot · strategy."""
+    return f"{report['world']} · {report['robot']} · {report['strategy']}"
+
+
+def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log: RunLog,
+              final_map: Optional[FinalMap] = None) -> Path:
+    """Write the run directory ``out_dir``: coverage.csv (sim_time_s, coverage), path.csv
+    (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), coverage.png (if sampled), map.png (with a
+    final map), report.md and, last and atomically, report.json; return report.json's path.
+    A report.json left by an earlier run is removed first, so the directory never pairs an old
+    report with new files. OSError if a file cannot be written (then there is no report.json)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.json").unlink(missing_ok=True)
+    t, frac = coverage.series
+    np.savetxt(out / "coverage.csv", np.column_stack([t, frac]), fmt=("%.2f", "%.5f"), delimiter=",",
+               header="sim_time_s,coverage", comments="")
+    path = log.path_in_map()
+    np.savetxt(out / "path.csv", path, fmt=("%.2f", "%.3f", "%.3f"), delimiter=",",
+               header="sim_time_s,x_m,y_m", comments="")
+    if t.size:
+        plot_coverage(out / "coverage.png", coverage, title=title(report))
+    if final_map is not None:
+        plot_map(out / "map.png", final_map.occupancy, final_map.resolution, final_map.origin,
+                 path_xy=path[:, 1:], goals_xy=list(log.goals), title=title(report))
+    json_path, _ = write_report(out, report)
+    return json_path
+
+
+def _pct(v) -> str:
+    return "-" if v is None else f"{100.0 * v:.1f} %"
+
+
+def _sec(v) -> str:
+    return "-" if v is None else f"{v:.0f} s"
+
+
+def summary_line(report: dict) -> str:
+    """One terminal line of the report's main figures."""
+    ate = report["ate_m"]
+    return (f"{title(report)} | coverage {_pct(report['coverage_final'])} (90 % at {_sec(report['time_to_90_s'])}, "
+            f"95 % at {_sec(report['time_to_95_s'])}, 99 % at {_sec(report['time_to_99_s'])}; "
+            f"seen {_pct(report.get('coverage_seen_final'))}) | {report['distance_m']:.1f} m driven | "
+            f"{report['collisions']} collisions | sim {report['sim_time_s']:.0f} s, wall {report['wall_time_s']:.0f} s, "
+            f"rtf {report['rtf']} | ATE {'-' if ate is None else f'{ate:.3f} m'} | {report['finished_reason']}")
