@@ -1,12 +1,13 @@
 """Mapper core: bad scans sorted and counted, map files as map_saver writes them, precision."""
 import math
+import re
 
 import numpy as np
 import pytest
 
 from conftest import room, write_world
 from turtlebot_recon.evaluation import map_precision
-from turtlebot_recon.mapping.map_io import load_map, save_map
+from turtlebot_recon.mapping.map_io import MapError, load_map, save_map
 from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.sim import load_world
@@ -76,6 +77,13 @@ def test_save_and_reload_like_map_saver(tmp_path):
     # map_server's orientation: the PGM's last row is grid row 0 (all free here)
     import cv2
     assert (cv2.imread(str(tmp_path / "m.pgm"), cv2.IMREAD_UNCHANGED)[-1] == 254).all()
+
+
+def test_a_map_with_a_bad_threshold_names_the_file_and_key(tmp_path):
+    path = save_map(tmp_path / "m", np.zeros((4, 6), np.int8), 0.05, (0.0, 0.0))
+    path.write_text(path.read_text().replace("free_thresh: 0.196", "free_thresh: low"))
+    with pytest.raises(MapError, match=re.escape(f"{path}: key 'free_thresh'")):
+        load_map(path)
 
 
 def test_precision_of_a_perfect_and_a_wrong_map(tmp_path):

@@ -76,6 +76,8 @@ def test_tags_on_walls_facing_free_space(tmp_path):
     (lambda m: m.update(image="missing.pgm"), "'image'"),
     (lambda m: m.update(resolution=-0.05), "'resolution'"),
     (lambda m: m.update(resolution="fine"), "'resolution'"),
+    (lambda m: m.update(mode="colour"), "'mode'"),               # mapping.map_io's reading
+    (lambda m: m.update(free_thresh="low"), "'free_thresh'"),    # of the map_server keys
     (lambda m: m.update(start=[0.0, 0.0, 0.0]), "'start'"),
     (lambda m: m.update(tags=[{"id": 1, "x": 2.0, "y": 0.1, "yaw": -math.pi / 2}]), "'tags[0]'"),
 ])

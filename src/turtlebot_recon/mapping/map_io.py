@@ -2,17 +2,60 @@
 
 Occupancy values follow nav_msgs/OccupancyGrid (-1 unknown, 0..100); grids are row-major with
 row 0 at the origin (smallest y), while the PGM's first row is the top of the map.
+``occupancy_classes`` is the one reading of an image by map_server's rules (the simulator's
+worlds use it too: a world is a map_server map plus extras).
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import cv2
 import numpy as np
 import yaml
 
+from ..config import ConfigError
+
 FREE_PX, OCCUPIED_PX, UNKNOWN_PX = 254, 0, 205
 OCCUPIED_THRESH, FREE_THRESH = 65, 25   # map_saver's defaults (ROS values, percent)
+# map_server's YAML defaults: a pixel's darkness p in [0, 1] above occupied_thresh is occupied,
+# below free_thresh free, unknown between
+YAML_OCCUPIED_THRESH, YAML_FREE_THRESH = 0.65, 0.196
+MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
+
+
+class MapError(ConfigError):
+    """A map_server YAML that cannot be read; the message names the file and the key."""
+
+
+def map_number(meta: dict, key: str, src: Path, default=None) -> float:
+    """``meta[key]`` (or ``default``) as a finite float; MapError naming ``src`` and the key."""
+    v = meta.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise MapError(f"{src}: key '{key}': expected a number, got {v!r}")
+    return float(v)
+
+
+def occupancy_classes(pixels: np.ndarray, meta: dict, src: Path) -> np.ndarray:
+    """map_server's interpretation: -1 unknown, 0 free, 100 occupied, per pixel (image order)."""
+    mode = meta.get("mode", "trinary")
+    if mode not in ("trinary", "scale", "raw"):
+        raise MapError(f"{src}: key 'mode': expected trinary, scale or raw, got {mode!r}")
+    if pixels.ndim == 3:  # map_server averages the colour channels and ignores alpha
+        pixels = pixels[..., :3].mean(axis=2)
+    v = pixels.astype(np.float64)
+    out = np.full(v.shape, -1, np.int8)
+    if mode == "raw":
+        out[v <= 100] = 0
+        out[(v > 0) & (v <= 100)] = 100
+        return out
+    occ_t = map_number(meta, "occupied_thresh", src, YAML_OCCUPIED_THRESH)
+    free_t = map_number(meta, "free_thresh", src, YAML_FREE_THRESH)
+    negate = meta.get("negate", 0)
+    p = v / 255.0 if negate else (255.0 - v) / 255.0
+    out[p > occ_t] = 100
+    out[p < free_t] = 0
+    return out
 
 
 def save_map(base: str | Path, occupancy: np.ndarray, resolution: float, origin_xy: tuple,
@@ -28,7 +71,7 @@ def save_map(base: str | Path, occupancy: np.ndarray, resolution: float, origin_
         raise OSError(f"cannot write {pgm}")
     meta = {"image": pgm.name, "resolution": float(resolution),
             "origin": [float(origin_xy[0]), float(origin_xy[1]), float(origin_yaw)],
-            "negate": 0, "occupied_thresh": 0.65, "free_thresh": 0.196}
+            "negate": 0, "occupied_thresh": YAML_OCCUPIED_THRESH, "free_thresh": YAML_FREE_THRESH}
     path = base.with_suffix(".yaml")
     path.write_text(yaml.safe_dump(meta, default_flow_style=None, sort_keys=False))
     return path
@@ -36,7 +79,6 @@ def save_map(base: str | Path, occupancy: np.ndarray, resolution: float, origin_
 
 def load_map(path: str | Path) -> tuple:
     """(occupancy int8 with -1/0/100, resolution, (origin_x, origin_y)) of a map_server YAML."""
-    from ..sim.world import occupancy_classes   # one reading of map_server's thresholds
     path = Path(path)
     meta = yaml.safe_load(path.read_text())
     pixels = cv2.imread(str(path.parent / meta["image"]), cv2.IMREAD_UNCHANGED)

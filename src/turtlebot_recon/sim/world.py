@@ -17,11 +17,11 @@ from scipy import ndimage
 
 from ..config import load_yaml, ConfigError
 from ..geometry import cell_to_xy, inside, xy_to_cell
+from ..mapping.map_io import MAP_KEYS, MapError, map_number, occupancy_classes
 
 log = logging.getLogger(__name__)
 
 WORLDS_DIR = Path(__file__).resolve().parents[3] / "worlds"
-MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
 EXTRA_KEYS = {"start", "wall_height", "tags"}
 TAG_KEYS = {"id", "family", "x", "y", "z", "yaw", "size"}
 START_CLEARANCE_M = 0.35   # an automatic start leaves this much room around the robot centre
@@ -84,38 +84,15 @@ def world_path(name_or_path: str | Path) -> Path:
     return WORLDS_DIR / f"{name_or_path}.yaml"
 
 
-def _number(meta: dict, key: str, src: Path, default=None) -> float:
-    v = meta.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise WorldError(f"{src}: key '{key}': expected a number, got {v!r}")
-    return float(v)
-
-
-def occupancy_classes(pixels: np.ndarray, meta: dict, src: Path) -> np.ndarray:
-    """map_server's interpretation: -1 unknown, 0 free, 100 occupied, per pixel (image order)."""
-    mode = meta.get("mode", "trinary")
-    if mode not in ("trinary", "scale", "raw"):
-        raise WorldError(f"{src}: key 'mode': expected trinary, scale or raw, got {mode!r}")
-    if pixels.ndim == 3:  # map_server averages the colour channels and ignores alpha
-        pixels = pixels[..., :3].mean(axis=2)
-    v = pixels.astype(np.float64)
-    out = np.full(v.shape, -1, np.int8)
-    if mode == "raw":
-        out[v <= 100] = 0
-        out[(v > 0) & (v <= 100)] = 100
-        return out
-    occ_t = _number(meta, "occupied_thresh", src, 0.65)
-    free_t = _number(meta, "free_thresh", src, 0.196)
-    negate = meta.get("negate", 0)
-    p = v / 255.0 if negate else (255.0 - v) / 255.0
-    out[p > occ_t] = 100
-    out[p < free_t] = 0
-    return out
-
-
 def load_world(name_or_path: str | Path) -> World:
     """Load and check a world; raise WorldError naming the file and key on bad input."""
-    src = world_path(name_or_path)
+    try:
+        return _load_world(world_path(name_or_path))
+    except MapError as exc:     # the map_server part of the file (mapping.map_io's reading)
+        raise WorldError(str(exc)) from None
+
+
+def _load_world(src: Path) -> World:
     if not src.exists():
         known = sorted(q.stem for q in WORLDS_DIR.glob("*.yaml"))
         raise WorldError(f"{src}: world file not found (shipped worlds: {known})")
@@ -131,7 +108,7 @@ def load_world(name_or_path: str | Path) -> World:
     image = src.parent / str(meta["image"])
     if not image.is_file():
         raise WorldError(f"{src}: key 'image': file {image} not found")
-    res = _number(meta, "resolution", src)
+    res = map_number(meta, "resolution", src)
     if not 0.001 <= res <= 1.0:
         raise WorldError(f"{src}: key 'resolution': {res} m per pixel is not a plausible map "
                          "resolution (expected 0.001-1.0)")
@@ -145,7 +122,7 @@ def load_world(name_or_path: str | Path) -> World:
     if pixels is None:
         raise WorldError(f"{src}: key 'image': {image} is not a readable image")
     free = np.flipud(occupancy_classes(pixels, meta, src) == 0).copy()
-    wall_height = _number(meta, "wall_height", src, 0.5)
+    wall_height = map_number(meta, "wall_height", src, 0.5)
     if wall_height <= 0:
         raise WorldError(f"{src}: key 'wall_height': must be positive, got {wall_height}")
     world = World(name=src.stem, path=src, resolution=res, origin=(float(origin[0]), float(origin[1])),

@@ -1,4 +1,5 @@
-"""Procedural simulator worlds (DESIGN.md section 4), ROS-free: numpy, OpenCV, PyYAML only.
+"""Procedural simulator worlds (DESIGN.md section 4), ROS-free: numpy, OpenCV, PyYAML and
+mapping.map_io (map_server's pixel values and thresholds), geometry (metres <-> cells).
 
 A world is a map_server map (binary PGM + YAML) with the extra keys ``wall_height``, ``start``
 and ``tags``.  Lengths are metres, angles radians.  World frame: x right, y up, origin at the
@@ -17,8 +18,10 @@ import numpy as np
 import yaml
 
 from .. import geometry
+from ..mapping.map_io import (FREE_PX, OCCUPIED_PX, UNKNOWN_PX, YAML_FREE_THRESH,
+                              YAML_OCCUPIED_THRESH, occupancy_classes)
 
-FREE, OCCUPIED, UNKNOWN = 254, 0, 205      # map_saver pixel values
+FREE, OCCUPIED, UNKNOWN = FREE_PX, OCCUPIED_PX, UNKNOWN_PX   # map_saver pixel values
 RES = 0.05                                  # m per pixel
 WALL_HEIGHT = 0.5                           # m
 TAG_Z = 0.25                                # m, marker centre height (mid-wall)
@@ -77,10 +80,8 @@ class Canvas:
 
 # ------------------------------------------------------------------ geometry helpers
 def free_mask(image, meta=None):
-    """Boolean mask of free pixels, following map_server's thresholds (trinary mode)."""
-    meta = meta or {}
-    occ = image.astype(np.float32) / 255.0 if meta.get("negate", 0) else (255.0 - image) / 255.0
-    return occ < meta.get("free_thresh", 0.196)
+    """Boolean mask of free pixels, following map_server's thresholds (the map's YAML ``meta``)."""
+    return occupancy_classes(image, meta or {}, "worldgen") == 0
 
 
 def world_to_px(x, y, shape, res, origin):
@@ -239,7 +240,7 @@ def make_tag(tag_id, family, x, y, yaw, z=TAG_Z):
 # ------------------------------------------------------------------ world assembly, checks, I/O
 def make_meta(name, start, tags, res=RES):
     return {"image": name + ".pgm", "resolution": res, "origin": [0.0, 0.0, 0.0], "negate": 0,
-            "occupied_thresh": 0.65, "free_thresh": 0.196, "mode": "trinary",
+            "occupied_thresh": YAML_OCCUPIED_THRESH, "free_thresh": YAML_FREE_THRESH, "mode": "trinary",
             "wall_height": WALL_HEIGHT, "start": [round(float(v), 4) + 0.0 for v in start], "tags": tags}
 
 
