@@ -1,21 +1,114 @@
 """Parameters are declared once: YAML keys match the settings dataclasses; typos are caught."""
 import dataclasses
 import re
+import typing
 from pathlib import Path
 
 import pytest
 
+from turtlebot_recon.behavior.supervisor import SupervisorSettings
 from turtlebot_recon.config import ConfigError, from_dict, from_params, load_yaml
+from turtlebot_recon.evaluation.evaluator import EvaluatorSettings
+from turtlebot_recon.evaluation.oracle import OracleDriverSettings
+from turtlebot_recon.exploration.explorer import ExplorerSettings
+from turtlebot_recon.exploration.frontiers import FrontierSettings
+from turtlebot_recon.exploration.goals import GoalBookSettings
+from turtlebot_recon.exploration.strategies import DEFAULT_STRATEGY, STRATEGIES
+from turtlebot_recon.mapping.mapper import MapperSettings
+from turtlebot_recon.planning.navigation import NavigationSettings
 from turtlebot_recon.robot import CONFIG_DIR, RobotSpec, load_robot
 from turtlebot_recon.sim.simulator import SimSettings
+from turtlebot_recon.trajectory import TrajectorySettings
 
 TOP = Path(__file__).resolve().parents[2]
+CONFIG = TOP / "config"
+
+# Every block of every config/*.yaml: (file, key path of the block) -> its settings class. The
+# path () is the file's top level, less the keys that lead to a block or selector of their own.
+# Nested dataclass fields (mapper.yaml's grid, navigator.yaml's planner and follower, oracle.yaml's
+# route) are part of their class's block.
+BLOCKS = {
+    ("sim_bridge.yaml", ()): SimSettings,
+    ("mapper.yaml", ()): MapperSettings,
+    ("navigator.yaml", ()): NavigationSettings,
+    ("supervisor.yaml", ()): SupervisorSettings,
+    ("trajectory.yaml", ()): TrajectorySettings,
+    ("evaluator.yaml", ()): EvaluatorSettings,
+    ("oracle.yaml", ()): OracleDriverSettings,
+    ("explorer.yaml", ()): ExplorerSettings,
+    ("explorer.yaml", ("frontiers",)): FrontierSettings,
+    ("explorer.yaml", ("goals",)): GoalBookSettings,
+    **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
+}
+# Keys that choose rather than set: (file, key path) -> (the choices, the default).
+SELECTORS = {("explorer.yaml", ("strategy",)): (set(STRATEGIES), DEFAULT_STRATEGY)}
+# Where the YAML (which every launch loads) and the class's defaults differ today, reported, not
+# changed here: (file, path) -> {key: the YAML's value}. Make the default the YAML's, then drop it.
+YAML_NOT_DEFAULT = {("explorer.yaml", ("frontiers",)): {"max_cost": 128}}   # FrontierSettings: 252
 
 
-def test_sim_bridge_yaml_declares_every_setting_once():
-    data = load_yaml(TOP / "config" / "sim_bridge.yaml")
-    assert set(data) == {f.name for f in dataclasses.fields(SimSettings)}
-    assert from_dict(SimSettings, data, "sim_bridge.yaml") == SimSettings()   # YAML = defaults
+ROWS = {*BLOCKS, *SELECTORS}
+
+
+def _block(name: str, path: tuple):
+    data = load_yaml(CONFIG / name)
+    for key in path:
+        data = data[key]
+    return data
+
+
+def _is_or_holds_a_row(name: str, path: tuple) -> bool:
+    """Whether the key path ``path`` of file ``name`` is a row of BLOCKS or SELECTORS or lies above one."""
+    return any(f == name and p[:len(path)] == path for f, p in ROWS)
+
+
+def _assert_keys_are_fields(cls, block: dict, where: str) -> None:
+    """The block's keys are exactly the class's fields, and likewise in nested dataclass fields."""
+    hints = typing.get_type_hints(cls)
+    assert set(block) == {f.name for f in dataclasses.fields(cls)}, where
+    for f in dataclasses.fields(cls):
+        if dataclasses.is_dataclass(hints[f.name]):
+            _assert_keys_are_fields(hints[f.name], block[f.name], f"{where}/{f.name}")
+
+
+def _params(table: dict) -> list:
+    return [pytest.param(name, path, id="/".join((name, *path))) for name, path in table]
+
+
+@pytest.mark.parametrize("name, path", _params(BLOCKS))
+def test_yaml_block_declares_every_setting_once_with_its_default(name, path):
+    cls, where = BLOCKS[name, path], "/".join((name, *path))
+    own = {k: v for k, v in _block(name, path).items() if not _is_or_holds_a_row(name, (*path, k))}
+    _assert_keys_are_fields(cls, own, where)
+    known = YAML_NOT_DEFAULT.get((name, path), {})
+    assert all(getattr(cls(), k) != v for k, v in known.items()), f"{where}: default = YAML now: drop it"
+    assert from_dict(cls, own, where) == dataclasses.replace(cls(), **known)      # YAML = defaults
+
+
+@pytest.mark.parametrize("name, path", _params(SELECTORS))
+def test_yaml_selector_names_a_choice_and_the_default(name, path):
+    choices, default = SELECTORS[name, path]
+    assert _block(name, path) == default and default in choices
+
+
+def test_every_config_file_and_key_has_a_settings_class():
+    # Every config/*.yaml (robots/ and rviz/ hold no node's settings) has a row ...
+    assert sorted(p.name for p in CONFIG.glob("*.yaml")) == sorted({f for f, _ in BLOCKS})
+    # ... and every key in it is a row, lies above one, or is a key of the block it sits in.
+    uncovered = []
+
+    def walk(name: str, path: tuple, node: dict) -> None:
+        for key, value in node.items():
+            sub = (*path, key)
+            if _is_or_holds_a_row(name, sub):
+                if (name, sub) not in ROWS:
+                    walk(name, sub, value)
+            elif (name, path) not in BLOCKS:
+                uncovered.append("/".join((name, *sub)))
+
+    for name in sorted({f for f, _ in BLOCKS}):
+        walk(name, (), load_yaml(CONFIG / name))
+    assert uncovered == []
 
 
 @pytest.mark.parametrize("path", sorted(CONFIG_DIR.glob("*.yaml")), ids=lambda p: p.stem)
@@ -60,11 +153,3 @@ def test_core_never_imports_rospy():
                  if p.parent.name != "ros" and re.search(r"^\s*(import|from)\s+rospy", p.read_text(), re.M)]
     assert offenders == []
 
-
-def test_mapper_yaml_declares_every_setting_once():
-    from turtlebot_recon.mapping.grid import GridSettings
-    from turtlebot_recon.mapping.mapper import MapperSettings
-    data = load_yaml(TOP / "config" / "mapper.yaml")
-    assert set(data) == {f.name for f in dataclasses.fields(MapperSettings)}
-    assert set(data["grid"]) == {f.name for f in dataclasses.fields(GridSettings)}
-    assert from_dict(MapperSettings, data, "mapper.yaml") == MapperSettings()   # YAML = defaults
