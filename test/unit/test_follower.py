@@ -8,18 +8,16 @@ w = clamp(1.5 err, 0.2, 0.8), xy / yaw tolerance 0.1, horizon 1.5 s, stop distan
 """
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from turtlebot_recon.config import ConfigError, from_dict, load_yaml
+from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.control import (STATUSES, ControlInput, ControlOutput, Controller,
                                      FollowerSettings, PurePursuit)
 from turtlebot_recon.planning import CostmapSettings, make_costmap
 from turtlebot_recon.robot import load_robot
 
-TOP = Path(__file__).resolve().parents[2]
 RES = 0.05
 ORIGIN = (-1.0, -1.0)
 FREE, INSCRIBED, LETHAL, UNKNOWN = 0, 253, 254, 255
@@ -97,12 +95,6 @@ def check_output(out, robot=WAFFLE):
 
 
 # ---------------------------------------------------------------- settings and contract
-
-def test_yaml_declares_every_setting_once_with_the_defaults():
-    data = load_yaml(TOP / "config" / "navigator.yaml")["follower"]
-    assert set(data) == {f.name for f in dataclasses.fields(FollowerSettings)}
-    assert from_dict(FollowerSettings, data, "navigator.yaml/follower") == FollowerSettings()
-
 
 def test_bad_settings_are_rejected():
     with pytest.raises(ConfigError, match="lookahead_max_m"):

@@ -1,17 +1,13 @@
 """Navigation core: plan on the costmap, follow, replan on map change, fail with a reason."""
-import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from turtlebot_recon.config import from_dict, load_yaml
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
 RES = 0.05
-TOP = Path(__file__).resolve().parents[2]
 
 
 def room(width_cells=80, height_cells=60):
@@ -40,12 +36,6 @@ def nav():
     n = Navigation(NavigationSettings(), load_robot("turtlebot3_burger"))
     n.update_map(room(), RES, (0.0, 0.0))
     return n
-
-
-def test_yaml_declares_every_setting_once():
-    data = load_yaml(TOP / "config" / "navigator.yaml")
-    assert set(data) == {f.name for f in dataclasses.fields(NavigationSettings)}
-    assert from_dict(NavigationSettings, data, "navigator.yaml") == NavigationSettings()
 
 
 def test_reaches_a_goal_across_the_room(nav):

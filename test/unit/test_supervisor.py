@@ -15,7 +15,7 @@ from turtlebot_recon.behavior import (BUMPER_BACKOFF, CENTRE, DONE, DRIFT, EXPLO
                                       most_open_bearing, obstacle_side, ring_candidates,
                                       turn_away_rad)
 from turtlebot_recon.behavior.recovery import bearings
-from turtlebot_recon.config import ConfigError, from_dict, load_yaml
+from turtlebot_recon.config import ConfigError, from_dict
 
 TOP = Path(__file__).resolve().parents[2]
 DEFAULTS = SupervisorSettings()
@@ -73,10 +73,8 @@ class Run:
 
 # ------------------------------------------------------------------------ settings
 
-def test_yaml_declares_every_setting_with_its_default_and_a_comment():
-    data = load_yaml(TOP / "config" / "supervisor.yaml")
-    assert set(data) == {f.name for f in dataclasses.fields(SupervisorSettings)}
-    assert from_dict(SupervisorSettings, data, "supervisor.yaml") == SupervisorSettings()
+def test_yaml_gives_every_setting_a_comment():
+    # keys and defaults: test_config's table
     for line in (TOP / "config" / "supervisor.yaml").read_text().splitlines():
         if line and not line.startswith("#"):
             assert "#" in line, f"no comment/unit: {line}"
