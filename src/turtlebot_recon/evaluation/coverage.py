@@ -109,13 +109,11 @@ def map_values_at(mx: np.ndarray, my: np.ndarray, occupancy: np.ndarray, resolut
                   origin_xy: tuple, outside: int = -1) -> np.ndarray:
     """int16, the shape of ``mx``: the map's value (ROS int8: -1 unknown, 0..100) of the cell
     under each map-frame point (m), row 0 at ``origin_xy``; ``outside`` for points off the map."""
-    mx = np.asarray(mx, dtype=float)
-    rows, cols = points_to_cells(np.stack([mx.ravel(), np.asarray(my, dtype=float).ravel()], axis=1),
-                                 resolution, origin_xy)
+    rows, cols = points_to_cells(np.stack([mx, my], axis=-1), resolution, origin_xy)
     on_map = inside(rows, cols, occupancy.shape)
     values = np.full(rows.shape, outside, dtype=np.int16)
     values[on_map] = occupancy[rows[on_map], cols[on_map]]
-    return values.reshape(mx.shape)
+    return values
 
 
 def free_at(mx: np.ndarray, my: np.ndarray, occupancy: np.ndarray, resolution: float,
