@@ -1,7 +1,63 @@
-"""The exploration loop's settings (the explorer node's own keys of config/explorer.yaml)."""
-from dataclasses import dataclass
+"""The exploration loop, ROS-free: frontier goals for the navigator, under the behaviour supervisor.
 
-from turtlebot_recon.config import positive, require
+``Explorer`` is driven at the supervisor's rate (``supervisor_rate_hz``, sim time) by two
+calls per tick, each returning ``Outputs`` (goals to send, cancels, twists, markers, state,
+the end) for the node to carry out in order:
+
+- ``explore(ExploreInputs)``: the navigator's results for our goals (GoalBook success on
+  arrival, failure on abort; retries, below), then, every ``cycle_period_s`` and at once when
+  a goal ended, the explorer cycle: costmap from the latest map, the robot's cell,
+  ``frontiers.detect``, a ``Context``, the strategy's choice and the GoalBook's bookkeeping
+  (attempt on send; failure when an obstacle appears at the goal twice; failure + blacklist
+  when the progress watchdog fires; drop when the goal's frontier was explored on the way or
+  it was cut off). A new choice replaces the navigator's goal.
+- ``supervise(SuperviseInputs)``: ``Supervisor.tick`` (spin, explore, recoveries, finish,
+  return home); its command becomes a twist, a navigator goal, the explorer's goals, or the
+  end. The node calls it with the time and pose read after the cycle, which takes wall time,
+  i.e. sim time at rtf > 1 (seconds in a large map); the navigator's status it hands the
+  supervisor is the one from before the cycle, so that a goal that just ended shows as ended
+  for one tick even when the cycle sent the next one (the stuck watchdog's window then starts
+  with the new goal, not at the robot's last progress on the old one).
+
+``start`` builds the supervisor (SPIN, then EXPLORE) once the node has the first map, the
+pose and the navigator.
+
+An abort of a goal that the explorer's own field still reaches says, in practice, that the
+robot is wedged (the navigator reports "blocked" wherever it stands), not that the goal is
+bad: the goal is re-sent (up to ``abort_retries`` times in a row) instead of failed, so the
+navigator stays active and the supervisor's stuck watchdog runs its recovery ladder, whose
+last rung blacklists the goal. Without this, a wedged robot fails and blacklists every
+frontier in turn and the run ends early. The home goal of RETURN_HOME is retried the same
+way (the supervisor ends the return at the first navigator failure).
+
+Navigator results come as the supervisor's status words (``ros/explore_msgs.nav_status`` of
+the goal's terminal actionlib state): "succeeded", "failed" (aborted, rejected) or "idle"
+(preempted, recalled, lost). Poses are (x, y, yaw) in the map frame (m, rad); times are sim
+seconds. Log lines go to ``log(level, msg, *args)`` (Python logging levels; the node routes
+them to rospy); the throttled ones are throttled on sim time, as rospy's are.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from ..behavior import Inputs, Supervisor, SupervisorSettings
+from ..behavior.supervisor import NAV_STATUSES
+from ..config import positive, require
+from ..geometry import xy_to_cell
+from ..planning import INSCRIBED, CostmapSettings, make_costmap
+from ..robot import RobotSpec
+from .frontiers import FrontierSettings, detect, robot_cost_to_come
+from .goals import GoalBook, stands_for
+from .strategies import Context
+
+Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
+INFO, WARNING = logging.INFO, logging.WARNING
 
 
 @dataclass(frozen=True)
@@ -28,3 +84,395 @@ class ExplorerSettings:
         require(isinstance(self.abort_retries, int) and self.abort_retries >= 0, src, "abort_retries",
                 "must be an integer >= 0")
         require(self.scan_margin_m >= 0, src, "scan_margin_m", "must be >= 0")
+
+
+# ------------------------------------------------------------------------------ inputs
+
+@dataclass(frozen=True)
+class Grid:
+    """A map: int8 (rows, cols) (occupancy -1..100, or visit counts), row 0 at the smallest y."""
+    data: np.ndarray
+    resolution: float                     # m per cell
+    origin: Tuple[float, float]           # (x, y) m of cell (0, 0)'s corner, map frame
+
+
+@dataclass(frozen=True)
+class NavEvent:
+    """The navigator ended goal ``seq`` (as numbered by ``SendGoal``)."""
+    seq: int
+    status: str                           # "succeeded", "failed" or "idle" (a NAV_STATUSES word)
+    text: str = ""                        # the navigator's reason
+
+    def __post_init__(self):
+        if self.status not in NAV_STATUSES:
+            raise ValueError(f"status must be one of {NAV_STATUSES}, got {self.status!r}")
+
+
+@dataclass(frozen=True)
+class ExploreInputs:
+    now_s: float
+    pose: tuple                           # (x, y, yaw)
+    grid: Optional[Grid]                  # the latest map; None: none usable (a cycle is skipped)
+    visits: Optional[Grid] = None         # the latest visit counts (used with use_visits)
+    nav_events: Tuple[NavEvent, ...] = () # navigator results since the last tick, in order
+
+
+@dataclass(frozen=True)
+class SuperviseInputs:
+    now_s: float
+    pose: tuple                           # (x, y, yaw)
+    bumper: Optional[int] = None          # pressed since the last tick: 0 left, 1 centre, 2 right
+    scan_clearance: Optional[Callable[[float], float]] = None   # robot-frame bearing -> free m
+
+
+# ----------------------------------------------------------------------------- outputs
+
+@dataclass(frozen=True)
+class SendGoal:
+    """Make the navigator pursue (x, y[, yaw]) (yaw None: any final heading); it replaces the
+    goal pursued so far. Results for it come back as ``NavEvent(seq, ...)``."""
+    kind: str                             # "explore" (a frontier goal) or "supervisor" (nudge, home)
+    xy: Tuple[float, float]
+    yaw: Optional[float]
+    seq: int
+    retries: int = 0                      # re-sends after aborts, in a row
+    heading: Optional[float] = None       # a new frontier goal: the direction robot -> goal (rad)
+                                          # to show on explore/goal; None otherwise
+
+
+@dataclass(frozen=True)
+class CancelGoal:
+    """Forget goal ``seq``; cancel it at the navigator if ``active`` (it still pursues it)."""
+    seq: int
+    active: bool
+
+
+@dataclass(frozen=True)
+class Velocity:
+    """Publish this twist (the navigator does not drive)."""
+    linear_mps: float = 0.0
+    angular_radps: float = 0.0
+
+
+Action = Union[SendGoal, CancelGoal, Velocity]
+
+
+@dataclass(frozen=True)
+class FrontierView:
+    """One cycle's frontiers, the goal pursued and the strategy's tour (explore/frontiers)."""
+    frontiers: list
+    resolution: float
+    origin: Tuple[float, float]
+    goal: Optional[Tuple[float, float]]
+    tour: Sequence
+    robot_xy: Tuple[float, float]
+    now_s: float
+
+
+@dataclass
+class Outputs:
+    actions: List[Action] = field(default_factory=list)   # carry out in this order
+    cycled: bool = False                  # an explorer cycle ran (it took wall time)
+    frontiers: Optional[FrontierView] = None
+    state: Optional[str] = None           # the supervisor's new state, when it changed
+    done: Optional[str] = None            # exploration ended this tick, with this reason
+
+
+@dataclass
+class SentGoal:
+    """A goal the navigator pursues for us."""
+    kind: str
+    xy: Tuple[float, float]
+    yaw: Optional[float]
+    seq: int
+    retries: int = 0
+
+
+# -------------------------------------------------------------------------------- loop
+
+class Explorer:
+    """The exploration loop (module docstring). ``nav`` is the navigator's status word for our
+    goal ``sent``; ``cycles`` counts explorer cycles; ``done`` is final."""
+
+    def __init__(self, settings: ExplorerSettings, frontier_settings: FrontierSettings, strategy,
+                 book: GoalBook, supervisor_settings: SupervisorSettings, robot: RobotSpec,
+                 log: Optional[Log] = None):
+        self.s, self.fs, self.strategy, self.book = settings, frontier_settings, strategy, book
+        self.sup_settings = supervisor_settings
+        self.supervisor: Optional[Supervisor] = None        # built by start()
+        self.costmap_settings = CostmapSettings.for_robot(robot)
+        half_width = robot.radius_m if robot.is_round else 0.5 * robot.footprint_width_m
+        self.scan_half_width_m = half_width + settings.scan_margin_m   # for ScanClearance
+        self.rng = np.random.default_rng(settings.seed)
+        self.ctx: Optional[Context] = None                  # the last cycle's view
+        self.frontiers, self.choice = [], None
+        self.cycles, self.goal_available = 0, True          # no detection yet: nothing says "done"
+        self.next_cycle_s, self.cycle_now = -math.inf, False
+        self.sent: Optional[SentGoal] = None
+        self.nav = "idle"                                   # idle | active | succeeded | failed
+        self.seq = 0
+        self.mode: Optional[str] = None                     # the last supervisor command's kind
+        self.state: Optional[str] = None
+        self.done = False
+        self._nav_before_cycle = "idle"
+        self._out = Outputs()
+        self._log = log or logging.getLogger(__name__).log
+        self._throttled: Dict[str, float] = {}
+
+    @property
+    def started(self) -> bool:
+        return self.supervisor is not None
+
+    def start(self, now_s: float, pose: tuple) -> None:
+        """Start the supervisor (SPIN first) at ``pose``, its home."""
+        self.supervisor = Supervisor(self.sup_settings, pose)
+        self._log(INFO, "explorer: started at t=%.1f s sim from (%.2f, %.2f, %.2f) in %s", now_s, *pose,
+                  self.s.map_frame)
+
+    # ------------------------------------------------------------------------ ticking
+    def explore(self, inp: ExploreInputs) -> Outputs:
+        """The navigator's results, then the explorer cycle when one is due (``cycled``)."""
+        if self.supervisor is None:
+            raise RuntimeError("Explorer.explore before start()")
+        out = self._out = Outputs()
+        if self.done:
+            return out                                    # DONE is final: nothing left to do
+        self._nav_results(inp.now_s, inp.pose, inp.nav_events)
+        self._nav_before_cycle = self.nav
+        if self.cycle_now or inp.now_s >= self.next_cycle_s:
+            self.cycle_now, self.next_cycle_s = False, inp.now_s + self.s.cycle_period_s
+            out.cycled = True
+            if inp.grid is not None:
+                self._cycle(inp.now_s, inp.pose, inp.grid, inp.visits)
+        return out
+
+    def supervise(self, inp: SuperviseInputs) -> Outputs:
+        """One supervisor tick and its command (after ``explore`` of the same tick)."""
+        if self.supervisor is None:
+            raise RuntimeError("Explorer.supervise before start()")
+        out = self._out = Outputs()
+        if self.done:
+            return out
+        active = self.book.active
+        cmd = self.supervisor.tick(Inputs(
+            now_s=inp.now_s, pose=inp.pose, nav=self._nav_before_cycle,
+            goal_available=self.goal_available, bumper=inp.bumper, free_space=self.free_space,
+            scan_clearance=inp.scan_clearance, explore_goal=active.goal if active else None,
+            explorer_cycle=self.cycles))
+        self._apply(cmd, inp.now_s, inp.pose)
+        if self.supervisor.state != self.state:
+            self.state = out.state = self.supervisor.state
+            self._log(INFO, "explorer: state %s (%s)", self.state, cmd.reason)
+        return out
+
+    def free_space(self, x: float, y: float) -> bool:
+        """(x, y) known free and clear of the inscribed band in the last cycle's costmap."""
+        ctx = self.ctx
+        if ctx is None:
+            return False
+        r, c = ctx.xy_to_cell((x, y))
+        return 0 <= r < ctx.costmap.shape[0] and 0 <= c < ctx.costmap.shape[1] and ctx.costmap[r, c] < INSCRIBED
+
+    # ------------------------------------------------------------- navigator results
+    def _nav_results(self, now: float, pose: tuple, events: Sequence[NavEvent]) -> None:
+        """The navigator's results for our goals: GoalBook success / failure, retries."""
+        for event in events:
+            sent = self.sent
+            if sent is None or event.seq != sent.seq:
+                continue                                   # a goal we already replaced
+            self.nav = event.status
+            failed = event.status == "failed"
+            if failed and self._retry(sent, now, pose, event.text):
+                continue
+            if sent.kind != "explore" or self.mode != "explore":
+                continue
+            if event.status == "succeeded":
+                expired = self.book.succeeded(sent.xy, now)
+                self._log(INFO, "explorer: goal (%.2f, %.2f) reached%s", *sent.xy,
+                          f"; {expired} blacklist entries nearby expired" if expired else "")
+                self.cycle_now = True
+            elif failed:
+                blacklisted = self.book.failed(sent.xy, now)
+                self._log(WARNING, "explorer: goal (%.2f, %.2f) failed (%s)%s", *sent.xy,
+                          event.text or "no reason given", "; blacklisted" if blacklisted else "")
+                self.cycle_now = True
+
+    def _retry(self, sent: SentGoal, now: float, pose: tuple, text: str) -> bool:
+        """Re-send an aborted frontier goal (in EXPLORE) or home goal (in RETURN_HOME) while
+        it is still reachable (explore: the strategies' test; home: clear of the inscribed
+        band) and fewer than abort_retries re-sends in a row were made."""
+        if sent.retries >= self.s.abort_retries:
+            return False
+        if sent.kind == "explore":
+            ok = self.mode == "explore" and self.ctx is not None and self.ctx.goal_ok(self.ctx.xy_to_cell(sent.xy))
+        else:
+            ok = self.supervisor.state == "RETURN_HOME" and self.free_space(*sent.xy)
+        if not ok:
+            return False
+        self._log_throttled(5.0, now, WARNING, "explorer: the navigator gave up on (%.2f, %.2f) (%s), which is "
+                            "still reachable: sent again (%d in a row)", *sent.xy, text, sent.retries + 1)
+        self._send(sent.kind, sent.xy, sent.yaw, pose, retries=sent.retries + 1)
+        return True
+
+    # ------------------------------------------------------------------ explorer cycle
+    def _cycle(self, now: float, pose: tuple, grid: Grid, visits: Optional[Grid]) -> None:
+        occ, res, origin = grid.data, grid.resolution, grid.origin
+        costmap = make_costmap(occ, res, self.costmap_settings)
+        cell = xy_to_cell(pose[:2], res, origin)
+        field = robot_cost_to_come(costmap, cell, res, self.fs.snap_radius_m)
+        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field)
+        ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
+                      occupancy=occ, costmap=costmap, cost_to_come=field, visits=self._visits(occ.shape, origin, visits),
+                      rng=self.rng, max_cost=INSCRIBED - 1)
+        # a goal is valid on any cell the robot can pass (it turns in place safely there: the
+        # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
+        # prefer goals further from walls where there is room
+        self.ctx, self.frontiers = ctx, frontiers
+        self._check_active_goal(ctx, frontiers, now)
+        self.choice = self.strategy.choose(frontiers, ctx, self.book)
+        self.cycles += 1
+        self.goal_available = self.choice is not None
+        if not frontiers:
+            self._log_throttled(10.0, now, INFO, "explorer: no frontier in the map (%d known cells)",
+                                int((occ >= 0).sum()))
+        elif self.choice is None:
+            self._log_throttled(10.0, now, INFO, "explorer: %d frontiers, %d with a reachable goal, none "
+                                "usable (blacklisted, too close to obstacles or visited)", len(frontiers),
+                                sum(f.reachable for f in frontiers))
+        if self.mode == "explore":
+            self._pursue(ctx, pose)
+        active = self.book.active
+        self._out.frontiers = FrontierView(frontiers, res, origin, active.goal if active else None,
+                                           getattr(self.strategy, "last_tour", []), pose[:2], now)
+
+    def _visits(self, shape: tuple, origin: tuple, v: Optional[Grid]) -> Optional[np.ndarray]:
+        if not self.s.use_visits or v is None:
+            return None
+        if v.data.shape != shape or not np.allclose(v.origin, origin):
+            return None                                    # the grid grew between the two
+        return v.data.astype(np.int32)
+
+    def _check_active_goal(self, ctx: Context, frontiers: list, now: float) -> None:
+        """Drop the goal being pursued when its frontier was explored, an obstacle appeared at
+        it or it was cut off; fail and blacklist it when the distance to it has not shrunk for
+        progress_timeout_s."""
+        active = self.book.active
+        if active is None:
+            return
+        # "blocked" as the navigator sees it (inscribed or worse: the context's max_cost), not
+        # frontiers.max_cost, which only steers where goals are placed. The strategy then picks
+        # again (seed 000's goal reset); the second time on one cell is a failure there
+        # (GoalBook.obstructed: a wall face read free from afar would make the robot shuttle).
+        reason = self.book.reevaluate_reason(active, frontiers, ctx)
+        if reason is not None:
+            blacklisted = reason == "blocked" and self.book.obstructed(active.goal, now, ctx.resolution)
+            self._log(INFO, "explorer: goal (%.2f, %.2f) dropped: %s%s", *active.goal, reason,
+                      "; blacklisted" if blacklisted else "")
+            self.book.active = None
+            return
+        if self.mode != "explore" or self.nav != "active":
+            return
+        r, c = ctx.xy_to_cell(active.goal)
+        if self.book.stalled(float(ctx.cost_to_come[r, c]), now):
+            self.book.failed(active.goal, now)
+            if not self.book.is_blacklisted(active.goal):
+                self.book.blacklist(active.goal, now)
+            self._log(WARNING, "explorer: no progress toward (%.2f, %.2f) for %.0f s: blacklisted", *active.goal,
+                      self.book.settings.progress_timeout_s)
+
+    def _pursue(self, ctx: Context, pose: tuple) -> None:
+        """Send the choice to the navigator (it replaces the goal) unless it is the goal being
+        pursued; nothing to choose cancels our goal."""
+        choice, active = self.choice, self.book.active
+        if choice is None:
+            self._cancel()
+            self.book.active = None
+            return
+        sent = self.sent
+        driving = sent is not None and sent.kind == "explore" and self.nav == "active"
+        if active is not None and math.dist(choice.goal, active.goal) <= self.s.same_goal_m:
+            if not (driving and sent.xy == active.goal):   # e.g. back from a recovery
+                self._send("explore", active.goal, None, pose)
+            return
+        if active is not None:
+            self._log(INFO, "explorer: goal (%.2f, %.2f) replaced by (%.2f, %.2f)", *active.goal, *choice.goal)
+        self.book.start(choice, ctx)
+        if driving and stands_for(sent.xy, choice.goal, self.s.same_goal_m, ctx):
+            self.book.active = dataclasses.replace(self.book.active, goal=sent.xy)  # already on its way
+            return
+        self._send("explore", self.book.active.goal, None, pose)
+
+    # ------------------------------------------------------------------------ output
+    def _apply(self, cmd, now: float, pose: tuple) -> None:
+        """Carry out one supervisor command."""
+        out = self._out
+        if cmd.blacklist is not None:
+            self.book.blacklist(cmd.blacklist, now)
+            active = self.book.active
+            if active is not None and math.dist(active.goal, cmd.blacklist) <= self.book.settings.blacklist_radius_m:
+                self.book.active = None
+            self._log(WARNING, "explorer: supervisor blacklisted (%.2f, %.2f)", *cmd.blacklist)
+            self.cycle_now = True
+        if cmd.kind == "twist":
+            self._cancel()
+            out.actions.append(Velocity(cmd.linear_mps, cmd.angular_radps))
+        elif cmd.kind == "goal":
+            g, sent = cmd.goal, self.sent
+            if sent is None or sent.kind != "supervisor" or math.dist(sent.xy, g[:2]) > 1e-3 or sent.yaw != g[2]:
+                self._send("supervisor", (g[0], g[1]), g[2], pose)
+        elif cmd.kind == "explore":
+            if self.mode != "explore":                    # back from SPIN or a recovery:
+                if self.sent is not None and self.sent.kind == "supervisor":
+                    self._cancel()                        # drop the nudge, and
+                self.cycle_now = True                     # (re)send the frontier goal next tick
+        elif cmd.kind in ("cancel", "stop"):
+            self._cancel()
+            if cmd.kind == "stop":
+                out.actions.append(Velocity())
+        elif cmd.kind == "done" and not self.done:
+            self.done = True
+            self._cancel()
+            out.actions.append(Velocity())
+            out.done = cmd.reason
+            self._log(INFO, "explorer: DONE (%s) at t=%.1f s sim; %d goals blacklisted", cmd.reason, now,
+                      len(self.book.entries()))
+        self.mode = cmd.kind
+
+    def _send(self, kind: str, xy: tuple, yaw: Optional[float], pose: tuple, retries: int = 0) -> None:
+        """Make the navigator pursue (x, y[, yaw]) (yaw None: any final heading)."""
+        self.seq += 1
+        self.sent = SentGoal(kind, (float(xy[0]), float(xy[1])), yaw, self.seq, retries)
+        self.nav = "active"
+        heading = None
+        if kind == "explore" and retries == 0:
+            heading = math.atan2(xy[1] - pose[1], xy[0] - pose[0])
+            self._log(INFO, "explorer: goal (%.2f, %.2f), %d frontiers", xy[0], xy[1], len(self.frontiers))
+        self._out.actions.append(SendGoal(kind, self.sent.xy, yaw, self.seq, retries, heading))
+
+    def _cancel(self) -> None:
+        """Cancel our goal at the navigator, if it still pursues one."""
+        if self.sent is not None:
+            self._out.actions.append(CancelGoal(self.sent.seq, active=self.nav == "active"))
+            self.sent, self.nav = None, "idle"
+
+    def _log_throttled(self, period_s: float, now: float, level: int, msg: str, *args) -> None:
+        """``log`` at most once per ``period_s`` of sim time per message (rospy's throttle)."""
+        last = self._throttled.get(msg)
+        if last is None or now - last > period_s or last > now:
+            self._throttled[msg] = now
+            self._log(level, msg, *args)
+
+    # ------------------------------------------------------------------------ report
+    def status_line(self, now_s: float, cycle_wall_ms: Sequence[float]) -> str:
+        """The terminal's progress line; ``cycle_wall_ms``: the explorer cycles' wall durations
+        since the last line."""
+        sup, active, sent = self.supervisor, self.book.active, self.sent
+        goal = "-" if active is None else f"({active.goal[0]:.2f}, {active.goal[1]:.2f})"
+        if sent is not None and sent.kind == "supervisor":
+            goal = f"({sent.xy[0]:.2f}, {sent.xy[1]:.2f}) [{sup.state.lower()}]"
+        ms = cycle_wall_ms
+        return (f"explorer: [{sup.state}] t={now_s:.1f} s  goal {goal}  frontiers {len(self.frontiers)} "
+                f"({sum(f.reachable for f in self.frontiers)} reachable)  blacklist {len(self.book.entries())}  "
+                f"empty cycles {sup.empty_cycles}/{self.sup_settings.finish_empty_cycles}  cycle "
+                f"{f'{np.median(ms):.0f}' if len(ms) else '-'} ms (median of {len(ms)}, wall)"
+                f"{f'  recovery rung {sup.rung}' if sup.rung else ''}")

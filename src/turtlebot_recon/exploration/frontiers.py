@@ -160,7 +160,7 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                          f"{resolution}")
     robot_cell = (int(robot_cell[0]), int(robot_cell[1]))
     if cost_to_come is None:
-        cost_to_come = _robot_cost_to_come(costmap, robot_cell, settings, resolution)
+        cost_to_come = robot_cost_to_come(costmap, robot_cell, resolution, settings.snap_radius_m)
     else:
         cost_to_come = np.asarray(cost_to_come)
         if cost_to_come.shape != occupancy.shape:
@@ -198,22 +198,25 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     return frontiers
 
 
-# ------------------------------------------------------------------------------------ steps
-
-def _robot_cost_to_come(costmap: np.ndarray, robot_cell: Cell, settings: FrontierSettings,
-                        resolution: float) -> np.ndarray:
-    """Dijkstra field (float32) from the robot, or from the nearest passable cell (cost <=
-    252) within snap_radius_m when the robot's own cell is impassable; all +inf if none."""
+def robot_cost_to_come(costmap: np.ndarray, robot_cell: Cell, resolution: float,
+                       snap_radius_m: float) -> np.ndarray:
+    """The cost-to-come field ``detect`` builds by default, for callers that need it first
+    (the explorer hands it to ``detect`` and to the strategies): Dijkstra (float32, m) from
+    ``robot_cell`` on ``costmap``, or from the nearest passable cell (cost below inscribed)
+    within ``snap_radius_m`` (path length) when the robot's own cell is impassable (it brushes
+    a wall) or off the grid; all +inf if there is none."""
     r, c = robot_cell
     rows, cols = costmap.shape
     start: Optional[Cell] = robot_cell
     if not (0 <= r < rows and 0 <= c < cols and costmap[r, c] < INSCRIBED):
         start = nearest_accessible(costmap, robot_cell, max_cost=INSCRIBED - 1,
-                                   max_radius_m=settings.snap_radius_m, resolution=resolution)
+                                   max_radius_m=snap_radius_m, resolution=resolution)
     if start is None:
         return np.full(costmap.shape, np.inf, dtype=np.float32)
-    return dijkstra(costmap, start, resolution=resolution)
+    return dijkstra(costmap, tuple(start), resolution=resolution)
 
+
+# ------------------------------------------------------------------------------------ steps
 
 def _representative_cell(cells: np.ndarray) -> Cell:
     """The cluster's cell nearest its centroid (first in raster order on ties)."""

@@ -1,0 +1,335 @@
+"""The exploration loop (exploration/explorer.py) driven with hand-made maps, no ROS.
+
+Every test runs ``Explorer`` the way the node does: 10 Hz ticks (times i / 10, never
+accumulated), each ``explore`` then ``supervise``, with navigator results fed back as
+``NavEvent``s. The map is a 2 x 4 m strip at 5 cm, no walls (so the costmap is 0 on every
+known cell and the numbers are easy to work by hand):
+
+    cols  0..19  unknown   x in [0, 1.0)
+    cols 20..59  free      x in [1.0, 3.0)
+    cols 60..79  unknown   x in [3.0, 4.0)        rows 0..39: y in [0, 2.0)
+
+Two frontiers: the unknown columns 19 and 60. The robot stands at the centre of cell
+(20, 30), (1.525, 1.025), facing +x. The strategy is ``nearest``: the frontier cell nearest
+the robot snapped to the nearest reachable cell, i.e. (20, 19) -> (20, 20), centre
+(1.025, 1.025), 0.5 m away, beats (20, 60) -> (20, 59), centre (2.975, 1.025), 1.45 m away.
+"""
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.behavior import CENTRE, SupervisorSettings
+from turtlebot_recon.exploration import FrontierSettings, detect
+from turtlebot_recon.exploration.explorer import (CancelGoal, ExploreInputs, Explorer, ExplorerSettings,
+                                                  Grid, NavEvent, SendGoal, SuperviseInputs, Velocity)
+from turtlebot_recon.exploration.frontiers import robot_cost_to_come
+from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings
+from turtlebot_recon.exploration.strategies import make_strategy
+from turtlebot_recon.planning import INSCRIBED, CostmapSettings, dijkstra, make_costmap
+from turtlebot_recon.robot import load_robot
+
+RES = 0.05
+FREE, UNKNOWN = 0, -1
+ROBOT = (1.525, 1.025, 0.0)        # cell (20, 30)
+LEFT_GOAL = (1.025, 1.025)         # cell (20, 20)
+RIGHT_GOAL = (2.975, 1.025)        # cell (20, 59)
+# no initial spin; the stuck watchdog only where a test asks for it
+SUPERVISOR = SupervisorSettings(spin_angle_deg=0.0, stuck_window_s=1000.0)
+
+
+def strip(left_unknown=True, right_unknown=True):
+    occ = np.full((40, 80), FREE, np.int8)
+    if left_unknown:
+        occ[:, :20] = UNKNOWN
+    if right_unknown:
+        occ[:, 60:] = UNKNOWN
+    return Grid(occ, RES, (0.0, 0.0))
+
+
+class Run:
+    """An Explorer fed 10 Hz ticks; ``log`` collects (level, line)."""
+
+    def __init__(self, grid=None, supervisor=SUPERVISOR, **settings):
+        self.log = []
+        self.ex = Explorer(ExplorerSettings(**settings), FrontierSettings(), make_strategy("nearest"),
+                           GoalBook(GoalBookSettings()), supervisor, load_robot("turtlebot3_burger"),
+                           log=lambda level, msg, *args: self.log.append((level, msg % args)))
+        self.grid = grid or strip()
+        self.i = 0
+        self.ex.start(self.now, ROBOT)
+
+    @property
+    def now(self):
+        return self.i / 10
+
+    def tick(self, events=(), bumper=None):
+        """One tick; its (explore outputs, supervise outputs)."""
+        a = self.ex.explore(ExploreInputs(self.now, ROBOT, self.grid, None, tuple(events)))
+        b = self.ex.supervise(SuperviseInputs(self.now, ROBOT, bumper))
+        self.i += 1
+        return a, b
+
+    def actions(self, *args, **kwargs):
+        a, b = self.tick(*args, **kwargs)
+        return a.actions + b.actions
+
+    def until_goal(self, max_ticks=30, **kwargs):
+        """Tick until a goal is sent; that goal."""
+        for _ in range(max_ticks):
+            sent = [x for x in self.actions(**kwargs) if isinstance(x, SendGoal)]
+            if sent:
+                return sent[-1]
+        raise AssertionError(f"no goal sent in {max_ticks} ticks: {self.log}")
+
+    def until_cycle(self, max_ticks=30, **kwargs):
+        """Tick until an explorer cycle runs; that tick's actions."""
+        for _ in range(max_ticks):
+            a, b = self.tick(**kwargs)
+            if a.cycled:
+                return a.actions + b.actions
+        raise AssertionError(f"no cycle in {max_ticks} ticks")
+
+    def lines(self, text):
+        return [line for _, line in self.log if text in line]
+
+
+def approx_xy(xy):
+    return pytest.approx(xy, abs=1e-9)
+
+
+# ------------------------------------------------------------------------- first goal
+
+def test_first_cycles_send_the_nearest_frontier_goal():
+    run = Run()
+    a, b = run.tick()
+    # tick 0: the first cycle finds both frontiers but does not drive yet (the supervisor
+    # starts in SPIN; with no spin it turns EXPLORE in this tick and asks for a cycle)
+    assert a.cycled and a.actions == [] and len(a.frontiers.frontiers) == 2
+    assert b.state == "EXPLORE" and run.ex.goal_available
+    a, b = run.tick()
+    # tick 1: that cycle sends the nearest goal, (1.025, 1.025), any final heading; the
+    # explore/goal arrow points robot -> goal: atan2(0, 1.025 - 1.525) = pi
+    assert a.cycled
+    (goal,) = a.actions
+    assert goal.kind == "explore" and goal.xy == approx_xy(LEFT_GOAL) and goal.yaw is None
+    assert goal.seq == 1 and goal.retries == 0 and goal.heading == pytest.approx(math.pi)
+    assert a.frontiers.goal == approx_xy(LEFT_GOAL)
+    # (the centre 20.5 * 0.05 computes to 1.0250000000000001, which %.2f prints as 1.03)
+    assert run.lines("explorer: goal (1.03, 1.03), 2 frontiers")
+    # later cycles keep the goal being pursued: nothing is sent again
+    for _ in range(25):
+        assert not [x for x in run.actions() if isinstance(x, SendGoal)]
+    assert run.ex.cycles >= 3
+
+
+def test_no_frontier_means_no_goal_available():
+    run = Run(grid=strip(left_unknown=False, right_unknown=False))
+    a, _ = run.tick()
+    assert a.cycled and a.frontiers.frontiers == [] and run.ex.goal_available is False
+    # 40 x 80 = 3200 cells, all known
+    assert run.lines("explorer: no frontier in the map (3200 known cells)")
+    assert not [x for x in a.actions if isinstance(x, SendGoal)]
+
+
+def test_a_cycle_runs_every_cycle_period_s():
+    run = Run(cycle_period_s=0.5)
+    cycled = [run.tick()[0].cycled for _ in range(12)]
+    # t = 0.0 (first), 0.1 (asked for by the supervisor's first "explore"), then every 0.5 s
+    # from 0.1: 0.6, 1.1
+    assert [i for i, c in enumerate(cycled) if c] == [0, 1, 6, 11]
+
+
+# -------------------------------------------------------------------- navigator results
+
+@pytest.mark.parametrize("retries", [0, 2])
+def test_aborted_goal_still_reachable_is_resent_up_to_abort_retries_then_fails(retries):
+    run = Run(abort_retries=retries)
+    goal = run.until_goal()
+    for k in range(1, retries + 1):
+        # still reachable in the last cycle's field: the same goal again, a new seq
+        (again,) = [x for x in run.actions(events=[NavEvent(goal.seq, "failed", "blocked")])
+                    if isinstance(x, SendGoal)]
+        assert again.xy == goal.xy and again.kind == "explore" and again.retries == k
+        assert again.seq == goal.seq + 1 and again.heading is None
+        assert not run.ex.book.is_blacklisted(LEFT_GOAL)
+        goal = again
+    # abort_retries re-sends in a row made: this abort is a failure (one blacklists), and the
+    # cycle it triggers at once goes to the other frontier
+    a, b = run.tick(events=[NavEvent(goal.seq, "failed", "blocked")])
+    assert a.cycled
+    assert run.ex.book.failures(LEFT_GOAL) == 1 and run.ex.book.is_blacklisted(LEFT_GOAL)
+    assert run.lines("failed (blocked); blacklisted")
+    (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.retries == 0
+    # the retry line is throttled (5 s of sim time): one line for both re-sends
+    assert len(run.lines("which is still reachable: sent again")) == min(retries, 1)
+
+
+def test_a_result_for_a_replaced_goal_is_ignored():
+    run = Run()
+    goal = run.until_goal()
+    a, _ = run.tick(events=[NavEvent(goal.seq - 1, "succeeded"), NavEvent(goal.seq + 5, "failed")])
+    assert run.ex.nav == "active" and run.ex.book.successes(LEFT_GOAL) == 0
+    assert run.ex.book.failures(LEFT_GOAL) == 0 and not a.cycled
+
+
+def test_succeeded_marks_success_and_triggers_a_cycle_at_once():
+    run = Run()
+    goal = run.until_goal()
+    a, _ = run.tick()
+    assert not a.cycled                       # 0.1 s after a cycle: none due
+    a, _ = run.tick(events=[NavEvent(goal.seq, "succeeded")])
+    assert a.cycled                           # the goal ended: a cycle right away
+    assert run.ex.book.successes(LEFT_GOAL) == 1
+    assert run.lines("explorer: goal (1.03, 1.03) reached")
+    # the map did not change, so the same frontier is chosen again and sent as a new goal
+    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert again.xy == approx_xy(LEFT_GOAL) and again.seq == goal.seq + 1 and again.retries == 0
+
+
+def test_goal_whose_frontier_disappears_is_dropped_for_the_next():
+    run = Run()
+    goal = run.until_goal()
+    run.grid = strip(left_unknown=False)      # the left region is now mapped: its frontier is gone
+    actions = run.until_cycle()
+    assert run.lines("explorer: goal (1.03, 1.03) dropped: explored")
+    # the right frontier replaces it; the navigator's goal is simply replaced (no cancel)
+    (nxt,) = [x for x in actions if isinstance(x, SendGoal)]
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == goal.seq + 1
+    assert nxt.heading == pytest.approx(0.0)  # atan2(0, 2.975 - 1.525)
+    assert not [x for x in actions if isinstance(x, CancelGoal)]
+    # dropped, not failed
+    assert run.ex.book.failures(LEFT_GOAL) == 0 and not run.ex.book.is_blacklisted(LEFT_GOAL)
+
+
+def test_no_usable_frontier_cancels_the_goal():
+    run = Run(grid=strip(right_unknown=False))
+    goal = run.until_goal()
+    run.grid = strip(left_unknown=False, right_unknown=False)
+    actions = run.until_cycle()
+    assert CancelGoal(goal.seq, active=True) in actions
+    assert run.ex.sent is None and run.ex.goal_available is False
+
+
+# ------------------------------------------------------------------- supervisor commands
+
+def test_supervisor_twist_cancels_the_goal_and_drives():
+    run = Run()
+    goal = run.until_goal()
+    a, b = run.tick(bumper=CENTRE)
+    # a centre press: BUMPER_BACKOFF reverses at backoff_speed_mps (0.1): the goal is cancelled
+    # at the navigator first, then the twist goes out
+    assert b.actions == [CancelGoal(goal.seq, active=True), Velocity(-0.1, 0.0)]
+    assert b.state == "BUMPER_BACKOFF" and run.ex.sent is None and run.ex.nav == "idle"
+    assert run.lines("explorer: state BUMPER_BACKOFF (bumper centre)")
+
+
+def test_stuck_nudge_goal_then_back_to_the_frontier_goal():
+    run = Run(supervisor=SupervisorSettings(spin_angle_deg=0.0))   # stuck after 10 s
+    goal = run.until_goal()
+    for _ in range(120):
+        a, b = run.tick()
+        if b.state == "NUDGE":
+            break
+    # the robot never moved while the navigator was active: the stuck watchdog's NUDGE goal
+    # (with a heading) replaces the frontier goal
+    (nudge,) = [x for x in b.actions if isinstance(x, SendGoal)]
+    assert nudge.kind == "supervisor" and nudge.yaw is not None and nudge.seq == goal.seq + 1
+    assert nudge.heading is None
+    # the nudge point is reached (trusted after nav_settle_s = 1 s): back to EXPLORE, the
+    # finished nudge is forgotten (not cancelled at the navigator: it ended) and the frontier
+    # goal is sent again at the next tick
+    for _ in range(10):
+        run.tick()
+    a, b = run.tick(events=[NavEvent(nudge.seq, "succeeded")])
+    assert b.state == "EXPLORE" and CancelGoal(nudge.seq, active=False) in b.actions
+    a, _ = run.tick()
+    (back,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert back.kind == "explore" and back.xy == approx_xy(LEFT_GOAL)
+
+
+def test_done_ends_with_the_reason_and_stays_done():
+    run = Run(grid=strip(left_unknown=False, right_unknown=False),
+              supervisor=SupervisorSettings(spin_angle_deg=0.0, finish_empty_cycles=2, return_home=False))
+    for _ in range(30):
+        a, b = run.tick()
+        if b.done is not None:
+            break
+    # two cycles without a frontier (t = 0.0 and 0.1): the supervisor finishes, no return home
+    assert b.done == "no reachable frontier for 2 explorer cycles"
+    assert b.state == "DONE" and Velocity(0.0, 0.0) in b.actions and run.ex.done
+    assert run.lines("explorer: DONE (no reachable frontier for 2 explorer cycles)")
+    a, b = run.tick()
+    assert a.actions == b.actions == [] and b.done is None and not a.cycled
+
+
+# ------------------------------------------------------------------------------ helpers
+
+def test_free_space_is_the_last_cycles_passable_known_space():
+    run = Run()
+    assert not run.ex.free_space(*ROBOT[:2])          # no cycle yet: nothing is known
+    run.tick()
+    assert run.ex.free_space(*ROBOT[:2])
+    assert not run.ex.free_space(0.5, 1.0)            # unknown
+    assert not run.ex.free_space(5.0, 1.0)            # off the map
+
+
+def test_status_line_names_state_goal_and_cycle_times():
+    run = Run()
+    run.until_goal()
+    line = run.ex.status_line(1.25, [10.0, 30.0, 20.0])
+    assert line.startswith("explorer: [EXPLORE] t=1.2 s  goal (1.03, 1.03)")
+    assert "frontiers 2 (2 reachable)" in line and "cycle 20 ms (median of 3, wall)" in line
+
+
+def test_explore_before_start_is_an_error():
+    ex = Explorer(ExplorerSettings(), FrontierSettings(), make_strategy("nearest"), GoalBook(),
+                  SUPERVISOR, load_robot("turtlebot3_burger"))
+    with pytest.raises(RuntimeError):
+        ex.explore(ExploreInputs(0.0, ROBOT, strip()))
+
+
+def test_nav_event_takes_status_words_only():
+    with pytest.raises(ValueError):
+        NavEvent(1, "ABORTED")
+
+
+def test_log_defaults_to_python_logging(caplog):
+    ex = Explorer(ExplorerSettings(), FrontierSettings(), make_strategy("nearest"), GoalBook(),
+                  SUPERVISOR, load_robot("turtlebot3_burger"))
+    with caplog.at_level(logging.INFO, logger="turtlebot_recon.exploration.explorer"):
+        ex.start(0.0, ROBOT)
+    assert "explorer: started at t=0.0 s sim from (1.52, 1.02, 0.00) in odom" in caplog.text
+
+
+# ------------------------------------------------------------------- the cost-to-come field
+
+def test_robot_cost_to_come_is_detects_default_field():
+    grid = strip()
+    costmap = make_costmap(grid.data, RES, CostmapSettings.for_robot(load_robot("turtlebot3_burger")))
+    field = robot_cost_to_come(costmap, (20, 30), RES, 1.0)
+    # no obstacle: 10 cells straight to (20, 20) at 0 cost = 0.5 m
+    assert field[20, 20] == pytest.approx(0.5, abs=1e-6) and math.isinf(field[20, 10])
+    given = detect(grid.data, RES, grid.origin, costmap, (20, 30), FrontierSettings(), field)
+    default = detect(grid.data, RES, grid.origin, costmap, (20, 30), FrontierSettings())
+    assert [(f.goal, f.path_cost_m) for f in given] == [(f.goal, f.path_cost_m) for f in default]
+
+
+def test_robot_cost_to_come_starts_beside_a_wall_the_robot_brushes():
+    # a 1-cell wall at column 7 of a free 11 x 15 grid. Its inscribed band reaches the burger's
+    # radius plus one cell diagonal, 0.105 + 0.0707 = 0.176 m: the cells whose centres are
+    # 0.05, 0.10 and 0.15 m from the wall's (columns 4..6 on its left) are inscribed, column 3
+    # (0.20 m) is not
+    occ = np.zeros((11, 15), np.int8)
+    occ[:, 7] = 100
+    costmap = make_costmap(occ, RES, CostmapSettings.for_robot(load_robot("turtlebot3_burger")))
+    assert (costmap[5, 4:7] >= INSCRIBED).all() and costmap[5, 3] < INSCRIBED
+    field = robot_cost_to_come(costmap, (5, 6), RES, 1.0)
+    # the robot's cell (5, 6) is in the band: the field starts at the nearest passable cell,
+    # (5, 3), 0.15 m away
+    assert field[5, 3] == 0.0
+    np.testing.assert_array_equal(field, dijkstra(costmap, (5, 3), resolution=RES))
+    # no passable cell within 0.1 m: nothing is reachable
+    assert np.isinf(robot_cost_to_come(costmap, (5, 6), RES, 0.1)).all()
