@@ -78,10 +78,12 @@ class OracleDriverSettings:
     point_timeout_s: float = 120.0       # s (sim), a route point not reached by then is skipped
     max_routes: int = 5                  # routes planned in all (the first and the re-plans)
     min_route_gain: float = 0.0005       # a re-planned route that adds less of F than this: done
+    start_timeout_wall_s: float = 60.0   # s (wall), for move_base, /clock, /map and the ground truth at
+                                         # the start; then the node exits 1 naming what is missing
 
     def validate(self, src: str) -> None:
         positive(src, self, "finish_coverage", "resend_period_s", "advance_m", "point_timeout_s", "max_routes",
-                 "min_route_gain")
+                 "min_route_gain", "start_timeout_wall_s")
         require(self.finish_coverage <= 1.0, src, "finish_coverage", "must be in (0, 1]")
         require(isinstance(self.replan_restarts, int) and self.replan_restarts >= 0, src,
                 "replan_restarts", "must be an integer >= 0")
