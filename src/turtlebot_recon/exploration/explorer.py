@@ -49,7 +49,7 @@ import numpy as np
 from ..behavior import Inputs, Supervisor, SupervisorSettings
 from ..behavior.supervisor import NAV_STATUSES
 from ..config import positive, require
-from ..geometry import xy_to_cell
+from ..geometry import inside, xy_to_cell
 from ..planning import INSCRIBED, CostmapSettings, make_costmap
 from ..robot import RobotSpec
 from .frontiers import FrontierSettings, detect, robot_cost_to_come
@@ -271,7 +271,7 @@ class Explorer:
         if ctx is None:
             return False
         r, c = ctx.xy_to_cell((x, y))
-        return 0 <= r < ctx.costmap.shape[0] and 0 <= c < ctx.costmap.shape[1] and ctx.costmap[r, c] < INSCRIBED
+        return bool(inside(r, c, ctx.costmap.shape)) and ctx.costmap[r, c] < INSCRIBED
 
     # ------------------------------------------------------------- navigator results
     def _nav_results(self, now: float, pose: tuple, events: Sequence[NavEvent]) -> None:
@@ -304,13 +304,15 @@ class Explorer:
         if sent.retries >= self.s.abort_retries:
             return False
         if sent.kind == "explore":
-            ok = self.mode == "explore" and self.ctx is not None and self.ctx.goal_ok(self.ctx.xy_to_cell(sent.xy))
+            ctx = self.ctx
+            ok = self.mode == "explore" and ctx is not None and ctx.goal_ok(ctx.xy_to_cell(sent.xy))
         else:
             ok = self.supervisor.state == "RETURN_HOME" and self.free_space(*sent.xy)
         if not ok:
             return False
-        self._log_throttled(5.0, now, WARNING, "explorer: the navigator gave up on (%.2f, %.2f) (%s), which is "
-                            "still reachable: sent again (%d in a row)", *sent.xy, text, sent.retries + 1)
+        self._log_throttled(5.0, now, WARNING, "explorer: the navigator gave up on (%.2f, %.2f) (%s), "
+                            "which is still reachable: sent again (%d in a row)", *sent.xy, text,
+                            sent.retries + 1)
         self._send(sent.kind, sent.xy, sent.yaw, pose, retries=sent.retries + 1)
         return True
 
@@ -322,8 +324,8 @@ class Explorer:
         field = robot_cost_to_come(costmap, cell, res, self.fs.snap_radius_m)
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field)
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
-                      occupancy=occ, costmap=costmap, cost_to_come=field, visits=self._visits(occ.shape, origin, visits),
-                      rng=self.rng, max_cost=INSCRIBED - 1)
+                      occupancy=occ, costmap=costmap, cost_to_come=field,
+                      visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1)
         # a goal is valid on any cell the robot can pass (it turns in place safely there: the
         # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
         # prefer goals further from walls where there is room
@@ -377,8 +379,8 @@ class Explorer:
             self.book.failed(active.goal, now)
             if not self.book.is_blacklisted(active.goal):
                 self.book.blacklist(active.goal, now)
-            self._log(WARNING, "explorer: no progress toward (%.2f, %.2f) for %.0f s: blacklisted", *active.goal,
-                      self.book.settings.progress_timeout_s)
+            self._log(WARNING, "explorer: no progress toward (%.2f, %.2f) for %.0f s: blacklisted",
+                      *active.goal, self.book.settings.progress_timeout_s)
 
     def _pursue(self, ctx: Context, pose: tuple) -> None:
         """Send the choice to the navigator (it replaces the goal) unless it is the goal being
@@ -395,7 +397,8 @@ class Explorer:
                 self._send("explore", active.goal, None, pose)
             return
         if active is not None:
-            self._log(INFO, "explorer: goal (%.2f, %.2f) replaced by (%.2f, %.2f)", *active.goal, *choice.goal)
+            self._log(INFO, "explorer: goal (%.2f, %.2f) replaced by (%.2f, %.2f)", *active.goal,
+                      *choice.goal)
         self.book.start(choice, ctx)
         if driving and stands_for(sent.xy, choice.goal, self.s.same_goal_m, ctx):
             self.book.active = dataclasses.replace(self.book.active, goal=sent.xy)  # already on its way
@@ -408,8 +411,8 @@ class Explorer:
         out = self._out
         if cmd.blacklist is not None:
             self.book.blacklist(cmd.blacklist, now)
-            active = self.book.active
-            if active is not None and math.dist(active.goal, cmd.blacklist) <= self.book.settings.blacklist_radius_m:
+            active, radius_m = self.book.active, self.book.settings.blacklist_radius_m
+            if active is not None and math.dist(active.goal, cmd.blacklist) <= radius_m:
                 self.book.active = None
             self._log(WARNING, "explorer: supervisor blacklisted (%.2f, %.2f)", *cmd.blacklist)
             self.cycle_now = True
@@ -418,7 +421,9 @@ class Explorer:
             out.actions.append(Velocity(cmd.linear_mps, cmd.angular_radps))
         elif cmd.kind == "goal":
             g, sent = cmd.goal, self.sent
-            if sent is None or sent.kind != "supervisor" or math.dist(sent.xy, g[:2]) > 1e-3 or sent.yaw != g[2]:
+            same = (sent is not None and sent.kind == "supervisor" and math.dist(sent.xy, g[:2]) <= 1e-3
+                    and sent.yaw == g[2])
+            if not same:
                 self._send("supervisor", (g[0], g[1]), g[2], pose)
         elif cmd.kind == "explore":
             if self.mode != "explore":                    # back from SPIN or a recovery:
@@ -471,8 +476,10 @@ class Explorer:
         if sent is not None and sent.kind == "supervisor":
             goal = f"({sent.xy[0]:.2f}, {sent.xy[1]:.2f}) [{sup.state.lower()}]"
         ms = cycle_wall_ms
+        median = f"{np.median(ms):.0f}" if len(ms) else "-"
+        rung = f"  recovery rung {sup.rung}" if sup.rung else ""
+        reachable = sum(f.reachable for f in self.frontiers)
         return (f"explorer: [{sup.state}] t={now_s:.1f} s  goal {goal}  frontiers {len(self.frontiers)} "
-                f"({sum(f.reachable for f in self.frontiers)} reachable)  blacklist {len(self.book.entries())}  "
-                f"empty cycles {sup.empty_cycles}/{self.sup_settings.finish_empty_cycles}  cycle "
-                f"{f'{np.median(ms):.0f}' if len(ms) else '-'} ms (median of {len(ms)}, wall)"
-                f"{f'  recovery rung {sup.rung}' if sup.rung else ''}")
+                f"({reachable} reachable)  blacklist {len(self.book.entries())}  "
+                f"empty cycles {sup.empty_cycles}/{self.sup_settings.finish_empty_cycles}  "
+                f"cycle {median} ms (median of {len(ms)}, wall){rung}")
