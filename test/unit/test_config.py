@@ -1,6 +1,5 @@
 """Parameters are declared once: YAML keys match the settings dataclasses; typos are caught."""
 import dataclasses
-import re
 import typing
 from pathlib import Path
 
@@ -145,11 +144,3 @@ def test_unknown_and_bad_parameters():
     assert s.rtf == 3.0 and len(warnings) == 1 and "colour" in warnings[0]
     with pytest.raises(ConfigError, match="no file"):
         load_robot("turtlebot9")
-
-
-def test_core_never_imports_rospy():
-    core = TOP / "src" / "turtlebot_recon"
-    offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
-                 if p.parent.name != "ros" and re.search(r"^\s*(import|from)\s+rospy", p.read_text(), re.M)]
-    assert offenders == []
-

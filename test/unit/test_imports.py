@@ -1,8 +1,11 @@
-"""What the robot's core may import: the same code runs in the simulator and on a real robot.
+"""What the package's modules may import.
 
-The core is every module under src/turtlebot_recon except sim/ and evaluation/ (simulation and
-scoring only: they may use the simulator) and ros/ (the rospy layer). It never imports the
-simulator (turtlebot_recon.sim, pybullet); a map_server map is mapping's, and sim builds on it.
+- Nothing under src/turtlebot_recon but ros/ (the thin rospy layer) imports rospy: ROS supplies
+  time, waiting and I/O in the nodes.
+- The robot's core, every module there except sim/ and evaluation/ (simulation and scoring only:
+  they may use the simulator) and ros/, never imports the simulator (turtlebot_recon.sim,
+  pybullet): the same code runs on a real robot. A map_server map is mapping's; sim builds on it.
+
 Imports are read with ``ast`` and relative ones resolved, so ``from ..sim import x``,
 ``from .. import sim`` and an import inside a function all count.
 """
@@ -35,9 +38,23 @@ def package_of(path: Path) -> str:
     return ".".join(("turtlebot_recon",) + path.relative_to(CORE).parent.parts)
 
 
+def files_outside(*tops):
+    """The package's .py files, but those under the top-level folders ``tops``."""
+    return [p for p in sorted(CORE.rglob("*.py")) if p.relative_to(CORE).parts[0] not in tops]
+
+
 def core_files():
-    return [p for p in sorted(CORE.rglob("*.py"))
-            if p.relative_to(CORE).parts[0] not in SIM_ONLY + ("ros",)]
+    return files_outside(*SIM_ONLY, "ros")
+
+
+def offenders(files, banned) -> dict:
+    """{file: the banned modules it imports} for the files that import any."""
+    found = {}
+    for p in files:
+        names = sorted(m for m in imports_of(p.read_text(), package_of(p)) if under(m, banned))
+        if names:
+            found[str(p.relative_to(CORE))] = names
+    return found
 
 
 def under(module: str, roots) -> bool:
@@ -65,9 +82,8 @@ def test_core_is_what_it_should_be():
 
 
 def test_core_never_imports_the_simulator():
-    offenders = {}
-    for p in core_files():
-        sim = sorted(m for m in imports_of(p.read_text(), package_of(p)) if under(m, SIM_MODULES))
-        if sim:
-            offenders[str(p.relative_to(CORE))] = sim
-    assert offenders == {}
+    assert offenders(core_files(), SIM_MODULES) == {}
+
+
+def test_nothing_but_ros_imports_rospy():
+    assert offenders(files_outside("ros"), ("rospy",)) == {}
