@@ -49,7 +49,11 @@ $(VENV_STAMP): $(APT_STAMP) tools/requirements.txt
 	$(VENV)/bin/pip install -q --disable-pip-version-check -r tools/requirements.txt
 	@touch $@
 
+# roslaunch resolves "localhost" (its local machine) even with a loopback master; a system with
+# no /etc/hosts (a bare chroot) gets Debian's standard loopback lines, once.
 setup: $(VENV_STAMP)
+	@getent hosts localhost >/dev/null || { echo "[setup] 'localhost' does not resolve: adding it to /etc/hosts (roslaunch needs it)"; \
+	  printf '127.0.0.1\tlocalhost\n::1\tlocalhost ip6-localhost ip6-loopback\n' >> /etc/hosts; }
 
 build: setup
 	@mkdir -p $(WS)/src

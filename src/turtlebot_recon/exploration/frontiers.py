@@ -59,8 +59,9 @@ class FrontierSettings:
     extend_into_unknown_m: float = 0.0  # push the representative point this far from the robot
                                         # into unknown space before snapping (seed 004); 0: off
     snap_radius_m: float = 1.0          # search radius (path length) for the goal cell
-    max_cost: int = 252                 # a goal cell's cost should be <= this; if no such cell is
-                                        # near, any cell below inscribed
+    max_cost: int = 128                 # a goal cell's cost should be <= this (128: 0.135 m beyond
+                                        # the inscribed band); if no such cell is near, any cell
+                                        # below inscribed
 
     def validate(self, src: str) -> None:
         require(isinstance(self.free_threshold, int) and 0 <= self.free_threshold <= 100, src,

@@ -20,6 +20,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..behavior.scan_clearance import ScanClearance
+from ..geometry import cells_to_points
 from .convert import stamp, yaw_to_quaternion
 
 
@@ -92,8 +93,7 @@ def frontier_markers(frontiers: Sequence, resolution: float, origin: Sequence[fl
     cells = marker("cells", Marker.POINTS, resolution, _CLUSTER)
     goals = marker("goals", Marker.SPHERE_LIST, 0.12, _GOAL)
     for f in frontiers:
-        xy = np.column_stack([origin[0] + (f.cells[:, 1] + 0.5) * resolution,
-                              origin[1] + (f.cells[:, 0] + 0.5) * resolution])
+        xy = cells_to_points(f.cells, resolution, origin)
         colour = ColorRGBA(*(_CLUSTER if f.reachable else _UNREACHABLE))
         cells.points.extend(Point(float(x), float(y), 0.02) for x, y in xy)
         cells.colors.extend([colour] * len(xy))
