@@ -12,7 +12,10 @@ SPEC = {  # name: (min width m, min height m, min tags)
     "maze": (7.0, 7.0, 3),
     "office": (30.0, 20.0, 8),
     "arena": (15.0, 15.0, 4),
+    "garden": (11.5, 9.5, 4),       # held-out worlds (bench-explore's HELD_OUT): 12 x 10 m
+    "doors": (15.5, 10.5, 8),       # 16 x 11 m
 }
+BURGER_BAND_M = 0.105 + 0.05 * math.sqrt(2)    # the planner's inscribed band for the burger, 0.176 m
 
 
 @pytest.mark.parametrize("name", sorted(SPEC))
@@ -32,7 +35,18 @@ def test_shipped_world(name):
         assert reach[r, c] == start_label, (name, t.id)
 
 
-@pytest.mark.parametrize("name", ["maze", "house"])
+@pytest.mark.parametrize("name", ["garden", "doors"])
+def test_held_out_worlds_need_the_narrow_passages(name):
+    # Every room is in reach of the burger's planner band (0.176 m: a 0.45 m door leaves
+    # 0.45 - 2 * 0.176 = 0.10 m for the centre), and a robot needing over 0.45 m (a centre
+    # clearance of 0.23 m: a door's middle pixel has 0.225 m) is shut out of whole rooms or rock fields.
+    image, meta = getattr(worldgen, name)()
+    assert worldgen.validate_world(image, meta, radius=BURGER_BAND_M) == []
+    shut_out = worldgen.validate_world(image, meta, radius=0.23)
+    assert any(p.startswith("unreachable free area") for p in shut_out), shut_out
+
+
+@pytest.mark.parametrize("name", ["maze", "house", "garden", "doors"])
 def test_worlds_are_regenerated_identically(tmp_path, name):
     image, meta = getattr(worldgen, name)()
     worldgen.write_world(tmp_path, name, image, meta)

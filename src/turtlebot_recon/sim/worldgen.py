@@ -61,6 +61,16 @@ class Canvas:
         inside = (px - x) ** 2 + (py - y) ** 2 < (radius - 1e-6) ** 2
         self.img[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1][inside] = value
 
+    def polygon(self, points, value=OCCUPIED, img=None):
+        """Fill the polygon of vertices ``points`` [(x, y), ...] (m) in this canvas (or in
+        ``img``, an array of its shape): every pixel whose centre is inside and the pixels its
+        edges cross (OpenCV's fill, at 1/16 pixel precision)."""
+        h, m, r = self.img.shape[0], self.margin, self.res
+        pts = np.asarray(points, float)
+        px = np.stack([(pts[:, 0] + m) / r - 0.5, h - (pts[:, 1] + m) / r - 0.5], axis=1)
+        cv2.fillPoly(self.img if img is None else img, [np.round(px * 16).astype(np.int32)], int(value),
+                     cv2.LINE_8, shift=4)
+
     def hwall(self, y, x0, x1, t=0.1):
         self.rect(x0, y - t / 2, x1, y + t / 2)
 
@@ -255,6 +265,17 @@ def _finish(cv, name, prefer, yaw, n_tags, rng, families=("tag36h11",), support=
     return cv.img, make_meta(name, start, tags, cv.res)
 
 
+def pockets(free, res, origin, reach, radius=ROBOT_RADIUS, min_pocket=1.0):
+    """[(area m^2, x, y)] of the free regions larger than ``min_pocket`` that a disc of
+    ``radius`` (m) centred on the ``reach`` pixels never covers (x, y: their centroids)."""
+    k = 2 * int(math.ceil(radius / res)) + 1
+    swept = cv2.dilate(reach.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
+    n, labels, stats, cen = cv2.connectedComponentsWithStats((free & ~swept).astype(np.uint8), connectivity=8)
+    big = [i for i in range(1, n) if stats[i, cv2.CC_STAT_AREA] * res * res > min_pocket]
+    return [(stats[i, cv2.CC_STAT_AREA] * res * res, *px_to_world(cen[i][1], cen[i][0], free.shape, res, origin))
+            for i in big]
+
+
 def validate_world(image, meta, radius=ROBOT_RADIUS, min_pocket=1.0):
     """List of problems (empty = fine): start clearance, tag checks, and free regions of more
     than ``min_pocket`` m^2 that a robot of ``radius`` (m) can neither enter nor sweep."""
@@ -265,14 +286,8 @@ def validate_world(image, meta, radius=ROBOT_RADIUS, min_pocket=1.0):
     if clearance(free, res)[r, c] < START_CLEARANCE:
         problems.append("start clearance below %.2f m" % START_CLEARANCE)
     reach = reachable(free, res, origin, (x, y), radius)
-    k = 2 * int(math.ceil(radius / res)) + 1
-    swept = cv2.dilate(reach.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))) > 0
-    n, labels, stats, cen = cv2.connectedComponentsWithStats((free & ~swept).astype(np.uint8), connectivity=8)
-    for i in range(1, n):
-        if stats[i, cv2.CC_STAT_AREA] * res * res > min_pocket:
-            px, py = px_to_world(cen[i][1], cen[i][0], image.shape, res, origin)
-            problems.append("unreachable free area %.1f m^2 near (%.1f, %.1f)"
-                            % (stats[i, cv2.CC_STAT_AREA] * res * res, px, py))
+    for area, px, py in pockets(free, res, origin, reach, radius, min_pocket):
+        problems.append("unreachable free area %.1f m^2 near (%.1f, %.1f)" % (area, px, py))
     ids = [t["id"] for t in meta["tags"]]
     if len(set(ids)) != len(ids):
         problems.append("duplicate tag ids")
@@ -461,6 +476,148 @@ def arena(seed=4, n_cyl=16):
     return _finish(cv, "arena", (W / 2, W / 2), 0.0, 6, rng, support=walls)
 
 
+def box_outline(x, y, width, depth, turn=0.0):
+    """Vertices (m) of a ``width`` x ``depth`` box centred on (x, y), turned by ``turn`` rad."""
+    u, v = np.array([-1, 1, 1, -1]) * width / 2, np.array([-1, -1, 1, 1]) * depth / 2
+    c, s = math.cos(turn), math.sin(turn)
+    return np.stack([x + c * u - s * v, y + s * u + c * v], axis=1)
+
+
+def ellipse_outline(x, y, rx, ry, turn=0.0, n=24):
+    """Vertices (m) of an ellipse of semi-axes ``rx``, ``ry`` centred on (x, y), turned by ``turn``."""
+    a = np.linspace(0, 2 * math.pi, n, endpoint=False)
+    u, v = rx * np.cos(a), ry * np.sin(a)
+    c, s = math.cos(turn), math.sin(turn)
+    return np.stack([x + c * u - s * v, y + s * u + c * v], axis=1)
+
+
+def rock_outline(rng, x, y, size):
+    """Vertices (m) of one irregular obstacle about ``size`` m across centred on (x, y): a
+    jagged rock (7-11 vertices at 0.65-1.0 of the radius), an ellipse or a turned slab."""
+    kind, r, turn = rng.integers(3), size / 2, rng.uniform(0, math.pi)
+    if kind == 1:
+        return ellipse_outline(x, y, r, r * rng.uniform(0.45, 0.9), turn)
+    if kind == 2:
+        return box_outline(x, y, size * rng.uniform(0.8, 1.0), size * rng.uniform(0.35, 0.7), turn)
+    a = np.sort(rng.uniform(0, 2 * math.pi, int(rng.integers(7, 12))))
+    rho = r * rng.uniform(0.65, 1.0, len(a))
+    return np.stack([x + rho * np.cos(a), y + rho * np.sin(a)], axis=1)
+
+
+def pack_rocks(cv, rng, box, gaps, sizes, start, keep=(), trials=20000, pocket_m2=0.5):
+    """Pack irregular obstacles (rock_outline, ``sizes`` m across) centred in ``box``
+    (x0, y0, x1, y1, building m): each leaves a gap of gaps[0]..gaps[1] m to the nearest solid
+    (walls or earlier rocks), so the field grows from the walls until no more fit.  ``keep``:
+    [(x, y, r)] discs left free.  A rock that would leave a free pocket over ``pocket_m2`` that
+    a ROBOT_RADIUS disc driven from ``start`` (world x, y) never covers is skipped
+    (validate_world's check).  Returns how many were placed."""
+    h, w = cv.img.shape
+    origin = (-cv.margin, -cv.margin)
+    xs, ys = px_to_world(np.arange(h)[:, None], np.arange(w)[None, :], (h, w), cv.res, origin)
+    reserved = np.zeros((h, w), bool)
+    for kx, ky, kr in keep:
+        reserved |= (xs - kx) ** 2 + (ys - ky) ** 2 < kr ** 2
+    scratch = np.zeros((h, w), np.uint8)            # each candidate drawn here first
+    placed, gap = 0, None
+    for _ in range(trials):
+        if gap is None:       # free gap (m) beside each pixel: to the nearest solid pixel centre, less one pixel
+            free = cv.img == FREE
+            gap = (cv2.distanceTransform(free.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) - 1) * cv.res
+        outline = rock_outline(rng, *rng.uniform(box[:2], box[2:]), rng.uniform(*sizes))
+        r1, c0 = world_to_px(*outline.min(axis=0), (h, w), cv.res, origin)   # image rows run down
+        r0, c1 = world_to_px(*outline.max(axis=0), (h, w), cv.res, origin)
+        rows, cols = slice(max(r0 - 2, 0), r1 + 3), slice(max(c0 - 2, 0), c1 + 3)
+        scratch[rows, cols] = 0
+        cv.polygon(outline, 1, scratch)
+        mask = scratch[rows, cols] > 0
+        if (mask & reserved[rows, cols]).any() or not gaps[0] <= gap[rows, cols][mask].min() <= gaps[1]:
+            continue
+        after = free.copy()
+        after[rows, cols] &= ~mask
+        if pockets(after, cv.res, origin, reachable(after, cv.res, origin, start), ROBOT_RADIUS, pocket_m2):
+            continue
+        cv.img[rows, cols][mask] = OCCUPIED
+        placed, gap = placed + 1, None
+    return placed
+
+
+def garden(seed=5):
+    """About 12 x 10 m: a rock garden (8 x 10 m) packed with irregular rocks, ellipses and
+    turned slabs 0.2-1.1 m across with 0.4-0.8 m gaps about a winding 0.9 m path, and on its
+    east side a shed (0.8 m door) and a greenhouse (0.5 m door, rocks with 0.5-0.9 m gaps)
+    joined by a 0.45 m door; 6 tags."""
+    rng = np.random.default_rng(seed)
+    W, H, T = 12.0, 10.0, 0.2
+    cv = Canvas(W, H)
+    cv.building(W, H, T)
+    cv.vwall(8.05, T, H - T)                        # garden x in [0.2, 8.0]
+    cv.hwall(4.95, 8.1, W - T)                      # shed y in [0.2, 4.9], greenhouse [5.0, 9.8]
+    doors = ((8.05, 2.5, 0.8, True), (8.05, 7.3, 0.5, True), (10.025, 4.95, 0.45, False))
+    for x, y, width, vertical in doors:
+        cv.door(x, y, width, vertical)
+    walls = cv.img != FREE
+    for box in ((11.2, 0.2, 11.8, 2.0), (8.1, 0.2, 9.3, 0.7)):      # shed: shelves
+        cv.rect(*box)
+    cv.polygon(box_outline(10.0, 3.1, 1.1, 0.55, 0.45))             # shed: a turned workbench
+    start = (1.0 + cv.margin, 5.0 + cv.margin)     # world metres (the margin added)
+    keep = [(1.0, 5.0, 0.9)] + [(x, y, 0.6) for x, y, _, _ in doors]
+    # A 0.9 m garden path winds from the start to both doors; off it, only 0.4-0.8 m gaps.
+    for a, b in (((1.0, 5.0), (3.0, 4.0)), ((3.0, 4.0), (5.5, 3.2)), ((5.5, 3.2), (8.0, 2.5)),
+                 ((5.5, 3.2), (6.2, 6.0)), ((6.2, 6.0), (8.0, 7.3))):
+        keep += [(*np.add(a, f * np.subtract(b, a)), 0.45) for f in np.linspace(0, 1, 30)]
+    for sizes in ((0.4, 1.1), (0.2, 0.45)):         # boulders, then stones in the holes they leave
+        pack_rocks(cv, rng, (T, T, 8.0, H - T), (0.4, 0.8), sizes, start, keep)
+    pack_rocks(cv, rng, (8.1, 5.0, W - T, H - T), (0.5, 0.9), (0.3, 0.7), start, keep, trials=1000)
+    return _finish(cv, "garden", (1.0, 5.0), 0.0, 6, rng, support=walls)
+
+
+def doors(seed=6):
+    """16 x 11 m: a 1.1 m corridor between two rows of rooms from 2 x 2 m closets to 6 x 4.7 m
+    halls, behind 0.45-0.6 m doors (most 0.45 m), three closets opening off rooms, furniture,
+    10 tags (every third aruco_6x6_100)."""
+    rng = np.random.default_rng(seed)
+    W, H, T = 16.0, 11.0, 0.2
+    cv = Canvas(W, H)
+    cv.building(W, H, T)
+    cv.hwall(4.95, T, W - T)                        # corridor y in [5.0, 6.1]
+    cv.hwall(6.15, T, W - T)
+    for x in (6.25, 9.85, 13.45):                   # south: hall | room + closet | room | 2 closets
+        cv.vwall(x, T, 4.95)
+    for x in (2.25, 8.35, 11.95):                   # north: 2 closets | hall | room | room + closet
+        cv.vwall(x, 6.15, H - T)
+    cv.vwall(7.75, T, 2.8)                          # closet in the south room, x [7.8, 9.8]
+    cv.hwall(2.75, 7.7, 9.8)
+    cv.hwall(2.55, 13.5, W - T)                     # south-east closets, y [0.2, 2.5] and [2.6, 4.9]
+    cv.hwall(8.75, T, 2.2)                          # north-west closets
+    cv.vwall(13.75, 8.2, H - T)                     # closet in the north-east room, y [8.3, 10.8]
+    cv.hwall(8.25, 13.7, W - T)
+    # Door centres put both edges on the 0.05 m grid (a 0.45 m door centred on x.x25 or x.x75).
+    for x, y, width in ((3.0, 4.95, 0.6), (7.025, 4.95, 0.45), (8.825, 2.75, 0.45), (11.5, 4.95, 0.5),
+                        (14.625, 4.95, 0.5), (15.125, 2.55, 0.45), (1.225, 6.15, 0.45), (4.025, 6.15, 0.55),
+                        (7.525, 6.15, 0.45), (10.0, 6.15, 0.5), (12.525, 6.15, 0.45)):
+        cv.door(x, y, width)
+    for x, y, width in ((2.25, 9.825, 0.45), (13.75, 9.525, 0.55)):
+        cv.door(x, y, width, vertical=True)
+    walls = cv.img != FREE
+    for box in ((1.5, 1.5, 3.5, 2.4), (0.2, 2.8, 0.6, 4.6),           # hall S: table, shelf
+                (8.6, 4.3, 9.8, 4.9), (9.4, 0.2, 9.8, 1.6),           # room + closet S
+                (9.9, 0.2, 11.4, 2.2), (12.8, 0.2, 13.4, 1.4),        # room S: bed, wardrobe
+                (13.5, 0.2, 15.8, 0.6),                               # closet SE: shelf
+                (0.2, 7.0, 0.6, 8.7), (1.6, 10.2, 2.2, 10.8),         # closets NW
+                (4.0, 10.2, 6.5, 10.8), (7.9, 7.5, 8.3, 9.5),         # hall N: sofa, cabinet
+                (8.4, 10.1, 9.8, 10.8),                               # room N: desk
+                (14.6, 6.2, 15.8, 6.9), (12.0, 9.6, 12.5, 10.8), (15.4, 8.3, 15.8, 10.8)):  # room NE
+        cv.rect(*box)
+    for x, y, r in ((2.5, 1.3, 0.2), (3.0, 2.6, 0.2), (15.4, 4.5, 0.25), (11.2, 7.5, 0.3), (15.0, 7.1, 0.2),
+                    (4.6, 8.0, 0.25), (6.0, 8.0, 0.25)):             # chairs, bins, plants
+        cv.circle(x, y, r)
+    cv.polygon(ellipse_outline(5.3, 8.9, 1.2, 0.6))                      # hall N: oval table
+    for outline in (box_outline(5.0, 1.2, 1.2, 0.6, 0.35), box_outline(12.2, 3.3, 0.5, 0.5, 0.6),  # piano, chair
+                    box_outline(9.4, 8.5, 0.8, 0.5, 0.5), box_outline(10.9, 9.6, 0.6, 0.6, 0.8)):  # crates
+        cv.polygon(outline)
+    return _finish(cv, "doors", (8.0, 5.55), 0.0, 10, rng, ("tag36h11", "tag36h11", "aruco_6x6_100"), walls)
+
+
 def warehouse(rows=1700, cols=1000, seed=0):
     """A rows x cols map at 0.05 m (default 85 x 50 m) for load-time benchmarks: rack rows,
     pillars, a loading dock with pallets, and unknown (205) blocks.  Returns (image, meta)."""
@@ -492,7 +649,7 @@ def warehouse(rows=1700, cols=1000, seed=0):
     return _finish(cv, "warehouse", (W / 2, dock / 2), math.pi / 2, 10, rng)
 
 
-WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena}
+WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena, "garden": garden, "doors": doors}
 
 
 def main(argv=None):
