@@ -30,9 +30,11 @@ help:
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
-	@echo "                 output/bench/explore/ (STRATEGIES=recon,nearest WORLDS=house SEEDS=3 JOBS=2 ROBOT= ROBOTS=maze=..."
-	@echo "                 BUDGET=sim s for all | BUDGETS=house=600,... RESUME=1 reuses finished runs,"
-	@echo "                 REPORT=1 runs nothing: table and explore.json from the runs on disk)"
+	@echo "                 output/bench/explore/; held-out worlds (garden, doors) reported apart (heldout_*)"
+	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
+	@echo "                 JOBS=cores/2 ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
+	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
+	@echo "                 DRY_RUN=1 prints the plan only)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -87,15 +89,17 @@ bench-sim: build
 bench-map: build
 	$(ENV) python test/benchmarks/bench_map.py
 
-# The bench's own defaults (all six strategies, all six worlds, 3 seeds, waffle_pi but the
-# burger in the maze, per-world budgets) apply unless a variable is given; ROBOT and BUDGET only
-# when set by the user (ROBOTS=maze=...,house=... per world).
+# The bench's own defaults (all six strategies and the oracle, the shipped, real and held-out
+# worlds, 3 seeds, half the cores, waffle_pi but the burger in the maze, garden and doors,
+# per-world budgets) apply unless a variable is given; QUICK=1 is its subset for iteration;
+# ROBOT and BUDGET only when set by the user (ROBOTS=maze=...,house=... per world).
 bench-explore: build
-	@$(ENV) python test/benchmarks/bench_explore.py $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
+	@$(ENV) python test/benchmarks/bench_explore.py $(if $(QUICK),--quick) $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(SEEDS),--seeds $(SEEDS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
-	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report)
+	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
+	  $(if $(DRY_RUN),--dry-run)
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds

@@ -208,3 +208,69 @@ def test_the_oracle_is_a_reference_not_a_baseline():
     assert f["time99_s_oracle_house"] == 240.0
     no_oracle = [r for r in runs if r.strategy != bm.REFERENCE]
     assert not any("oracle" in k for k in bm.figures(bm.aggregate(no_oracle), no_oracle))
+
+
+def held_out_sweep():
+    """Tuning worlds house and arena, held-out worlds garden and doors; one seed each.
+    Distance to 99 % is dist - 10 m (run()'s default) where 99 % is reached.
+    house:  recon t99 300 (dist99 40), nearest 400 (30), oracle 250
+    arena:  recon 360 (50), nearest 300 (35), oracle 200
+    garden: recon 500 (60, coverage 0.97, 2 collisions), nearest never, density 450 (35), oracle 400
+    doors:  recon 660 (70), nearest 600 (80), oracle 480"""
+    return [run("recon", "house", t99=300.0, dist=50.0, cov=0.995), run("nearest", "house", t99=400.0, dist=40.0),
+            run(bm.REFERENCE, "house", t99=250.0),
+            run("recon", "arena", t99=360.0, dist=60.0, cov=0.992), run("nearest", "arena", t99=300.0, dist=45.0),
+            run(bm.REFERENCE, "arena", t99=200.0),
+            run("recon", "garden", t99=500.0, dist=70.0, cov=0.97, coll=2), run("nearest", "garden", t99=None),
+            run("density", "garden", t99=450.0, dist=45.0), run(bm.REFERENCE, "garden", t99=400.0),
+            run("recon", "doors", t99=660.0, dist=80.0, cov=0.993), run("nearest", "doors", t99=600.0, dist=90.0),
+            run(bm.REFERENCE, "doors", t99=480.0)]
+
+
+def test_held_out_worlds_are_reported_apart():
+    runs = held_out_sweep()
+    f = bm.figures(bm.aggregate(runs), runs, held_out=("garden", "doors", "unused"))
+    assert f["tuning_worlds"] == ["house", "arena"] and f["heldout_worlds"] == ["garden", "doors"]
+    assert f["runs"] == 13 and f["default_runs"] == 2 and f["heldout_default_runs"] == 2
+    # tuning set: time99 house 300 / 400 = 0.75, arena 360 / 300 = 1.2 -> worst 1.2
+    assert f["default_time99_ratio_vs_best_baseline"] == pytest.approx(1.2)
+    # recon / oracle: house 300 / 250 = 1.2, arena 360 / 200 = 1.8 -> 1.8
+    assert f["default_time99_ratio_vs_oracle_max"] == pytest.approx(1.8)
+    # distance to 99 %: house 40 / 30, arena 50 / 35 = 10 / 7 -> 10 / 7
+    assert f["default_distance99_ratio_vs_best_baseline_max"] == pytest.approx(10.0 / 7.0)
+    assert f["default_distance99_ratio_vs_best_baseline"] == f["default_distance99_ratio_vs_best_baseline_max"]
+    assert f["default_min_coverage"] == 0.992 and f["default_collisions"] == 0    # garden's 0.97 and 2 not here
+    # held out: time99 garden 500 / min(never, 450) = 10 / 9, doors 660 / 600 = 1.1 -> 10 / 9
+    assert f["heldout_default_time99_ratio_vs_best_baseline"] == pytest.approx(10.0 / 9.0)
+    # recon / oracle: garden 500 / 400 = 1.25, doors 660 / 480 = 1.375 -> 1.375
+    assert f["heldout_default_time99_ratio_vs_oracle_max"] == pytest.approx(1.375)
+    # distance: garden 60 / min(never, 35) = 12 / 7, doors 70 / 80 = 0.875 -> 12 / 7
+    assert f["heldout_default_distance99_ratio_vs_best_baseline_max"] == pytest.approx(12.0 / 7.0)
+    assert f["heldout_default_min_coverage"] == 0.97 and f["heldout_default_collisions"] == 2
+    assert f["heldout_default_time99_never_worlds"] == 0
+    # per-world keys keep their names, whichever set the world is in
+    assert f["time99_ratio_vs_best_baseline_garden"] == pytest.approx(10.0 / 9.0)
+    assert f["default_time99_ratio_vs_oracle_doors"] == pytest.approx(1.375)
+    json.dumps(f, allow_nan=False)
+
+
+def test_without_held_out_worlds_every_world_is_tuning():
+    runs = [r for r in held_out_sweep() if r.world in ("house", "arena")]
+    for held_out in ((), ("garden", "doors")):          # none given, or none of them ran
+        f = bm.figures(bm.aggregate(runs), runs, held_out=held_out)
+        assert f["tuning_worlds"] == ["house", "arena"]
+        assert not any(k.startswith("heldout_") for k in f)
+    everything = bm.figures(bm.aggregate(held_out_sweep()), held_out_sweep())   # no held_out: one set
+    assert everything["default_min_coverage"] == 0.97
+    assert everything["default_time99_ratio_vs_oracle_max"] == pytest.approx(1.8)
+
+
+def test_ratio_vs_oracle_max_rules():
+    # house: recon 300 s, oracle never -> 0 (only recon got there); arena: recon never, oracle
+    # 200 s -> inf (null): the worst world is inf; without the oracle anywhere: no key at all.
+    runs = [run("recon", "house", t99=300.0), run(bm.REFERENCE, "house", t99=None)]
+    assert bm.figures(bm.aggregate(runs), runs)["default_time99_ratio_vs_oracle_max"] == 0.0
+    runs += [run("recon", "arena", t99=None), run(bm.REFERENCE, "arena", t99=200.0)]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["default_time99_ratio_vs_oracle_max"] is None and f["default_time99_never_worlds"] == 1
+    assert "default_time99_ratio_vs_oracle_max" not in bm.figures(bm.aggregate(runs[:1]), runs[:1])

@@ -573,7 +573,7 @@ def garden(seed=5):
 
 def doors(seed=6):
     """16 x 11 m: a 1.1 m corridor between two rows of rooms from 2 x 2 m closets to 6 x 4.7 m
-    halls, behind 0.45-0.6 m doors (most 0.45 m), three closets opening off rooms, furniture,
+    halls (four behind other rooms), behind 0.45-0.6 m doors (seven of 0.45 m), furniture,
     10 tags (every third aruco_6x6_100)."""
     rng = np.random.default_rng(seed)
     W, H, T = 16.0, 11.0, 0.2
