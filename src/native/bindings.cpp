@@ -16,6 +16,7 @@ using namespace turtlebot_recon;
 void register_mapping(py::module_& m);    // occupancy_grid.cpp
 void register_planning(py::module_& m);   // planning.cpp
 void register_exploration(py::module_& m);  // exploration.cpp
+void register_lattice(py::module_& m);    // lattice.cpp
 
 namespace {
 
@@ -58,4 +59,5 @@ PYBIND11_MODULE(_native, m) {
   register_mapping(m);
   register_planning(m);
   register_exploration(m);
+  register_lattice(m);
 }

@@ -1,4 +1,5 @@
-"""Global planning: inflated costmap, A* with visit penalty, line-of-sight shortcut.
+"""Global planning: inflated costmap, A* with visit penalty, line-of-sight shortcut, and the
+state-lattice planner for oriented footprints (``lattice``).
 
 The raw native functions are re-exported for callers that need the distance field, the
 Dijkstra cost-to-come field or the nearest accessible cell (e.g. frontier goals).
@@ -6,9 +7,10 @@ Dijkstra cost-to-come field or the nearest accessible cell (e.g. frontier goals)
 from .._native import astar, dijkstra, distance_transform, inflate, nearest_accessible, shortcut
 from .costmap import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, CostmapSettings,
                       PlannerSettings, PlanningError, make_costmap, plan)
+from .lattice import LatticePath, LatticeSettings, plan_lattice
 
 __all__ = [
     "FREE_SPACE", "INSCRIBED", "LETHAL", "NO_INFORMATION", "CostmapSettings", "PlannerSettings",
     "PlanningError", "make_costmap", "plan", "astar", "dijkstra", "distance_transform", "inflate",
-    "nearest_accessible", "shortcut",
+    "nearest_accessible", "shortcut", "LatticePath", "LatticeSettings", "plan_lattice",
 ]

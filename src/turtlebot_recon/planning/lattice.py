@@ -1,0 +1,120 @@
+"""State-lattice planner for the oriented footprint: facade over ``_native.plan_lattice``.
+
+The 2-D planner (``costmap.plan``) checks the robot's centre against a costmap inflated by the
+turning disc, so a box robot is shut out of every gap narrower than that disc. This one plans
+over (row, col, heading) (include/turtlebot_recon/lattice_search.hpp): forward moves along the
+heading whose swept box, padded by ``margin_m``, stays clear of the obstacle cells' squares,
+and turns in place only where the turning disc fits. A round robot's box is its disc: headings
+never matter to its collisions and it turns wherever it stands.
+
+Grids are row-major ``(rows, cols)`` with row 0 at the smallest y; poses are (x, y, yaw) in
+metres and radians in the grid's frame (``origin`` is the (x, y) of cell (0, 0)'s corner).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .. import _native, geometry
+from ..config import positive, require
+from ..robot import RobotSpec
+from .costmap import PlanningError
+
+
+@dataclass(frozen=True)
+class LatticeSettings:
+    headings: int = 16                 # lattice headings: 4, 8 or 16 (0, 26.6, 45, 63.4, ... deg)
+    margin_m: float = 0.02             # body to obstacle edge, driving: the waffle_pi's 0.306 m box
+                                       # passes 0.35 m; an 8-cell 0.40 m gap puts its centre cell
+                                       # 0.175 m off one side, 0.022 m beyond the box
+    turn_margin_m: float = 0.01        # turning disc to obstacle edge (box robots): the waffle_pi's
+                                       # 0.257 m disc turns in the 0.6 m maze, whose centre cells lie
+                                       # 0.275 m from the walls
+    cost_weight: float = 1.0           # weight of the graded cost c / 252 per metre (as the 2-D A*)
+    inflation_m: float = 0.35          # graded cost out to this far beyond the inscribed radius
+    cost_scaling_factor: float = 5.0   # 1/m, decay of the graded cost (Nav2's convention)
+    cruise_speed_mps: float = 0.26     # turning costs the distance not driven meanwhile:
+    turn_speed_radps: float = 0.8      # |dtheta| / turn_speed x cruise_speed metres
+    occupied_threshold: int = 65       # occupancy (0..100) >= this is an obstacle (map_server)
+    unknown_is_obstacle: bool = False  # unknown cells collide with the body (never entered anyway)
+
+    def validate(self, src: str) -> None:
+        require(self.headings in (4, 8, 16), src, "headings", "must be 4, 8 or 16")
+        positive(src, self, "margin_m", "cruise_speed_mps", "turn_speed_radps")
+        require(self.turn_margin_m >= 0, src, "turn_margin_m", "must be >= 0")
+        require(self.cost_weight >= 0, src, "cost_weight", "must be >= 0")
+        require(self.inflation_m >= 0, src, "inflation_m", "must be >= 0")
+        require(self.cost_scaling_factor >= 0, src, "cost_scaling_factor", "must be >= 0")
+        require(isinstance(self.occupied_threshold, int) and 1 <= self.occupied_threshold <= 100,
+                src, "occupied_threshold", "must be an integer in 1..100")
+
+    @property
+    def turn_cost_m_per_rad(self) -> float:
+        """Metres charged per radian turned in place: the cruise distance lost while turning."""
+        return self.cruise_speed_mps / self.turn_speed_radps
+
+    @classmethod
+    def for_robot(cls, robot: RobotSpec, **overrides) -> "LatticeSettings":
+        """Defaults with ``robot``'s cruise speed and its turning speed, capped at the follower's
+        0.8 rad/s in-place rate (``FollowerSettings.rotate_speed_max_radps``)."""
+        values = dict(cruise_speed_mps=robot.max_linear_mps,
+                      turn_speed_radps=min(0.8, robot.max_angular_radps))
+        values.update(overrides)
+        return cls(**values)
+
+
+@dataclass(frozen=True)
+class LatticePath:
+    poses: np.ndarray        # float (n, 3): x, y (m, the cell centres), yaw (rad), start ... goal
+    cells: np.ndarray        # int32 (n, 2): (row, col)
+    headings: np.ndarray     # int32 (n,): lattice heading index
+    turned: np.ndarray       # bool (n,): reached from the previous pose by turning in place
+    cost: float              # the search's cost (m): driven + graded + turning
+    length_m: float          # driven
+    turned_rad: float        # turned in place (costs settings.turn_cost_m_per_rad per radian)
+
+
+def footprint_args(robot: RobotSpec) -> dict:
+    """The footprint as ``_native.plan_lattice`` takes it (a round robot: length 0)."""
+    if robot.is_round:
+        return dict(footprint_length_m=0.0, footprint_width_m=0.0, footprint_offset_x_m=0.0,
+                    radius_m=robot.radius_m)
+    return dict(footprint_length_m=robot.footprint_length_m,
+                footprint_width_m=robot.footprint_width_m,
+                footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
+
+
+def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+                 robot: RobotSpec, start_pose: Sequence[float], goal_xy: Sequence[float],
+                 settings: LatticeSettings, goal_yaw: Optional[float] = None) -> LatticePath:
+    """Cheapest lattice path from ``start_pose`` (x, y, yaw) to ``goal_xy`` on an int8 occupancy
+    grid (-1 unknown, 0..100), at ``goal_yaw`` if given (snapped to the nearest heading).
+
+    The start is the cell holding the robot at the heading nearest its yaw; the goal the cell
+    holding ``goal_xy``. Raises PlanningError naming the start or goal when it is off the grid,
+    in an obstacle or unknown space, or its footprint collides, and when the goal is unreachable.
+    """
+    settings.validate("LatticeSettings")
+    start = geometry.xy_to_cell(start_pose[:2], resolution, origin)
+    goal = geometry.xy_to_cell(goal_xy, resolution, origin)
+    try:
+        out = _native.plan_lattice(
+            occupancy, resolution, start, float(start_pose[2]), goal, goal_yaw, **footprint_args(robot),
+            headings=settings.headings, margin_m=settings.margin_m,
+            turn_margin_m=settings.turn_margin_m, cost_weight=settings.cost_weight,
+            inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
+            turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
+            occupied_threshold=settings.occupied_threshold,
+            unknown_is_obstacle=settings.unknown_is_obstacle)
+    except ValueError as exc:
+        raise PlanningError(str(exc)) from exc
+    if not math.isfinite(out["cost"]):
+        raise PlanningError(f"plan_lattice: goal {goal} is unreachable from start {start} for "
+                            f"{robot.name}'s footprint")
+    xy = geometry.cells_to_points(out["cells"], resolution, origin)
+    return LatticePath(poses=np.column_stack([xy, out["yaw"]]), cells=out["cells"],
+                       headings=out["heading"], turned=out["turned"], cost=float(out["cost"]),
+                       length_m=float(out["length_m"]), turned_rad=float(out["turned_rad"]))

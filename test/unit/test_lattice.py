@@ -1,0 +1,369 @@
+"""State-lattice planner for the oriented footprint (planning.lattice, lattice_search.hpp).
+
+Every returned path is checked by ``check_path``, written here independently of the C++: each
+pose, and poses every centimetre along each forward move, keeps the body ``margin_m`` off every
+obstacle cell's square; every turn in place happens where the turning disc keeps
+``turn_margin_m`` off them; consecutive poses are one lattice move apart.
+
+Maps are hand-made at 0.05 m, origin (0, 0): cell (row, col) spans x in [col, col + 1] x 0.05,
+y in [row, row + 1] x 0.05. The waffle_pi's box (config/robots): 0.281 m long, 0.306 m wide,
+its centre 0.064 m behind base_footprint, so it reaches 0.0765 m ahead, 0.2045 m behind and
+0.153 m to each side; turning disc 0.257 m. Default margins: 0.02 m driving, 0.01 m turning.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from turtlebot_recon import _native
+from turtlebot_recon.config import ConfigError
+from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
+                                      PlanningError, make_costmap, plan, plan_lattice)
+from turtlebot_recon.robot import load_robot
+
+RES = 0.05
+ORIGIN = (0.0, 0.0)
+WAFFLE = load_robot("turtlebot3_waffle_pi")
+BURGER = load_robot("turtlebot3_burger")
+HEADINGS = _native.lattice_headings(16)       # (drow, dcol, yaw) per heading
+
+
+# ---------------------------------------------------------------- factories and the check
+
+def centre(row, col, yaw=0.0):
+    """The pose (x, y, yaw) at the centre of cell (row, col)."""
+    return ((col + 0.5) * RES, (row + 0.5) * RES, yaw)
+
+
+def walled(rows, cols):
+    """Free int8 occupancy with a one-cell wall all round."""
+    occ = np.zeros((rows, cols), np.int8)
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = 100
+    return occ
+
+
+def two_rooms(gap_cells):
+    """Two 1.9 x 2.9 m rooms joined through a 0.2 m wall (columns 38-41) by a gap of
+    ``gap_cells`` rows centred on row 30 (8 cells: rows 26-33, y in [1.30, 1.70])."""
+    occ = walled(60, 80)
+    occ[:, 38:42] = 100
+    low = 30 - gap_cells // 2
+    occ[low:low + gap_cells, 38:42] = 0
+    return occ
+
+
+def l_corridor(corner_room):
+    """A 0.45 m (9-cell) corridor: east along rows 10-18 from column 3 to 40, then north along
+    columns 32-40 up to row 55. With ``corner_room`` the corner widens to a 0.8 m square (rows
+    6-21, columns 28-43)."""
+    occ = np.full((60, 60), 100, np.int8)
+    occ[10:19, 3:41] = 0
+    occ[10:56, 32:41] = 0
+    if corner_room:
+        occ[6:22, 28:44] = 0
+    return occ
+
+
+def obstacle_centres(occ):
+    rows, cols = np.nonzero(occ >= 65)
+    return (cols + 0.5) * RES, (rows + 0.5) * RES
+
+
+def square_distance(px, py, cx, cy):
+    """Distance from the point(s) (px, py) to the axis-aligned cell squares centred at (cx, cy)."""
+    dx = np.maximum(np.abs(px - cx) - 0.5 * RES, 0.0)
+    dy = np.maximum(np.abs(py - cy) - 0.5 * RES, 0.0)
+    return np.hypot(dx, dy)
+
+
+def body_clearance(robot, pose, cx, cy):
+    """Distance (m) from the body at ``pose`` to the nearest obstacle square, 0 when they meet.
+
+    Round: centre to square, less the radius. Box: two disjoint convex polygons are nearest at a
+    vertex of one of them, so take (a) each square corner to the box, in the robot's frame, and
+    (b) each box corner to the squares, in the map's; overlapping ones have a vertex inside the
+    other (a 5 cm square cannot cross the box from side to side), which (a) or (b) finds at 0.
+    """
+    x, y, yaw = pose
+    if robot.is_round:
+        return float((square_distance(x, y, cx, cy) - robot.radius_m).min(initial=np.inf))
+    x0 = robot.footprint_offset_x_m - 0.5 * robot.footprint_length_m
+    x1 = robot.footprint_offset_x_m + 0.5 * robot.footprint_length_m
+    y1 = 0.5 * robot.footprint_width_m
+    c, s = math.cos(yaw), math.sin(yaw)
+    best = np.inf
+    h = 0.5 * RES
+    for sx in (-h, h):                                     # (a)
+        for sy in (-h, h):
+            px, py = cx + sx - x, cy + sy - y
+            u, v = c * px + s * py, -s * px + c * py
+            du = np.maximum(np.maximum(x0 - u, u - x1), 0.0)
+            dv = np.maximum(np.abs(v) - y1, 0.0)
+            best = min(best, np.hypot(du, dv).min(initial=np.inf))
+    for bx in (x0, x1):                                    # (b)
+        for by in (-y1, y1):
+            wx, wy = x + c * bx - s * by, y + s * bx + c * by
+            best = min(best, square_distance(wx, wy, cx, cy).min(initial=np.inf))
+    return float(best)
+
+
+def turning_disc(robot, settings):
+    """Radius the turning disc must keep clear of obstacle squares: the circumscribed radius plus
+    the turning margin (a round robot: its body, plus the driving margin)."""
+    if robot.is_round:
+        return robot.radius_m + settings.margin_m
+    return robot.radius_m + settings.turn_margin_m
+
+
+def check_path(path, robot, settings, occ):
+    """Assert that ``path`` is a chain of lattice moves whose body stays clear (see the module)."""
+    cx, cy = obstacle_centres(occ)
+    margin, tiny = settings.margin_m, 1e-9
+    n = len(path.poses)
+    assert path.poses.shape == (n, 3) and path.cells.shape == (n, 2) and path.turned.shape == (n,)
+    assert not path.turned[0]
+    length = turned = 0.0
+    for i in range(n):
+        (r, c), k = path.cells[i], int(path.headings[i])
+        assert occ[r, c] >= 0, f"pose {i} on unknown cell {(r, c)}"
+        assert math.isclose(path.poses[i, 2], HEADINGS[k][2])
+        assert body_clearance(robot, path.poses[i], cx, cy) >= margin - tiny, f"pose {i} collides"
+        if i == 0:
+            continue
+        (r0, c0), k0 = path.cells[i - 1], int(path.headings[i - 1])
+        if path.turned[i]:
+            # a turn in place to the next heading, where the disc fits
+            assert (r, c) == (r0, c0) and (k - k0) % 16 in (1, 15), f"pose {i} is no turn"
+            x, y, _ = path.poses[i]
+            clear = square_distance(x, y, cx, cy).min(initial=np.inf)
+            assert clear >= turning_disc(robot, settings) - tiny, f"turn at pose {i} is too tight"
+            turned += abs(math.remainder(HEADINGS[k][2] - HEADINGS[k0][2], 2 * math.pi))
+        else:
+            # one lattice vector forward; the body clear every centimetre along it
+            dr, dc, yaw = HEADINGS[k0]
+            assert k == k0 and (r - r0, c - c0) == (dr, dc), f"pose {i} is no forward move"
+            step = math.hypot(dr, dc) * RES
+            length += step
+            x0, y0, _ = path.poses[i - 1]
+            for t in np.linspace(0.0, 1.0, int(math.ceil(step / 0.01)) + 1)[1:-1]:
+                pose = (x0 + t * dc * RES, y0 + t * dr * RES, yaw)
+                assert body_clearance(robot, pose, cx, cy) >= margin - tiny, f"move to pose {i} collides"
+    assert math.isclose(path.length_m, length, abs_tol=1e-9)
+    assert math.isclose(path.turned_rad, turned, abs_tol=1e-9)
+
+
+def lattice(occ, robot, start_pose, goal_xy, goal_yaw=None, **overrides):
+    settings = LatticeSettings.for_robot(robot, **overrides)
+    path = plan_lattice(occ, RES, ORIGIN, robot, start_pose, goal_xy, settings, goal_yaw=goal_yaw)
+    check_path(path, robot, settings, occ)
+    return path
+
+
+# ---------------------------------------------------------------- headings
+
+def test_headings_are_the_lattice_vectors():
+    # 16 headings: (dx, dy) = (1,0), (2,1), (1,1), (1,2) and their turns by 90 degrees;
+    # heading 1 is atan2(1, 2) = 26.57 deg, heading 3 atan2(2, 1) = 63.43 deg.
+    assert [(dr, dc) for dr, dc, _ in HEADINGS[:5]] == [(0, 1), (1, 2), (1, 1), (2, 1), (1, 0)]
+    assert HEADINGS[1][2] == pytest.approx(math.atan2(1, 2))
+    assert HEADINGS[8][:2] == (0, -1) and HEADINGS[12][:2] == (-1, 0)
+    for dr, dc, yaw in HEADINGS:
+        assert yaw == pytest.approx(math.atan2(dr, dc))
+    assert [(dr, dc) for dr, dc, _ in _native.lattice_headings(4)] == [(0, 1), (1, 0), (0, -1), (-1, 0)]
+    assert len(_native.lattice_headings(8)) == 8
+    with pytest.raises(ValueError, match="4, 8 or 16"):
+        _native.lattice_headings(12)
+
+
+# ---------------------------------------------------------------- gaps
+
+@pytest.mark.parametrize("gap_cells, passes", [(8, True), (7, True), (6, False)])
+def test_waffle_drives_straight_through_the_gaps_its_box_fits(gap_cells, passes):
+    # The box is 0.306 m wide; with 0.02 m margins it needs 0.346 m.
+    #  8 cells (0.40 m): the gap's middle is a cell boundary; the centre cell nearest it lies
+    #    0.175 m from one side, 0.175 - 0.153 = 0.022 >= 0.02 m: passes.
+    #  7 cells (0.35 m): the middle cell lies 0.175 m from both sides: passes.
+    #  6 cells (0.30 m): narrower than the box itself: no path.
+    occ = two_rooms(gap_cells)
+    start, goal = centre(30, 10, yaw=1.0), centre(30, 70)[:2]
+    if not passes:
+        with pytest.raises(PlanningError, match="unreachable"):
+            lattice(occ, WAFFLE, start, goal)
+        return
+    path = lattice(occ, WAFFLE, start, goal)
+    in_wall = (path.cells[:, 1] >= 38) & (path.cells[:, 1] <= 41)
+    assert in_wall.sum() >= 4
+    # aligned with the gap: heading 0 (east) all the way through, never turning in it
+    assert (path.headings[in_wall] == 0).all() and not path.turned[in_wall].any()
+    # The robot starts at heading 3 (63.4 deg, nearest 1.0 rad), turns right to 0 in the room
+    # (3 turns: 63.4 deg = 1.107 rad) and drives 60 cells east: 3.0 m.
+    assert path.length_m == pytest.approx(3.0)
+    assert path.turned_rad == pytest.approx(math.atan2(2, 1))
+
+
+def test_disc_planner_finds_no_path_through_the_040_gap():
+    # Today's 2-D planner inflates by the turning disc: inscribed radius 0.257 + one cell
+    # diagonal 0.071 = 0.328 m > the gap's half-width 0.20 m, so every cell of the gap is
+    # inscribed (253) and the rooms are cut apart.
+    occ = two_rooms(8)
+    costmap = make_costmap(occ, RES, CostmapSettings.for_robot(WAFFLE))
+    assert (costmap[26:34, 38:42] >= 253).all()
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan(costmap, (30, 10), (30, 70), PlannerSettings())
+
+
+def test_burger_passes_the_030_gap():
+    # The burger's disc, 0.105 m + 0.02 m margin: the 6-cell gap's centre cells lie 0.125 m and
+    # 0.175 m from its sides: 0.125 >= 0.125 passes (the margin is measured to the edge).
+    path = lattice(two_rooms(6), BURGER, centre(30, 10), centre(30, 70)[:2])
+    assert path.length_m == pytest.approx(3.0)
+
+
+# ---------------------------------------------------------------- turning
+
+def test_turns_in_place_only_where_the_disc_fits_l_corridor():
+    # The 0.45 m corridor holds the box (0.225 m each side of the middle cell, 0.072 m spare)
+    # but not the turning disc (0.257 + 0.01 = 0.267 m > 0.225 m), so the robot turns the 90
+    # degree corner only inside the 0.8 m corner room, whose middle cells lie 0.375 m from its
+    # walls; check_path checks the disc at every turn.
+    start, goal = centre(14, 10), centre(50, 36)[:2]
+    path = lattice(l_corridor(corner_room=True), WAFFLE, start, goal)
+    turns = path.cells[path.turned]
+    assert len(turns) >= 4            # four 22.5 deg-ish steps make the 90 degrees
+    assert ((turns[:, 0] >= 6) & (turns[:, 0] <= 21) & (turns[:, 1] >= 28) & (turns[:, 1] <= 43)).all()
+    assert path.turned_rad == pytest.approx(math.pi / 2)
+    with pytest.raises(PlanningError, match="unreachable"):
+        lattice(l_corridor(corner_room=False), WAFFLE, start, goal)
+
+
+def test_a_turn_costs_the_cruise_distance_lost_turning():
+    # Open floor, cost_weight 0: from (30, 20) facing east to (50, 20) facing north. Any path
+    # must turn at least 90 degrees (its moves add up to a vector due north, the goal heading
+    # is north) and drive at least 20 cells, so the optimum turns on the spot and drives:
+    # 1.0 m + pi/2 rad x (0.26 m/s / 0.8 rad/s) = 1.0 + 0.5105 = 1.5105 m.
+    occ = walled(80, 80)
+    path = lattice(occ, WAFFLE, centre(30, 20), centre(50, 20)[:2], goal_yaw=math.pi / 2,
+                   cost_weight=0.0)
+    assert path.cost == pytest.approx(1.0 + math.pi / 2 * 0.26 / 0.8)
+    assert path.turned_rad == pytest.approx(math.pi / 2)
+    assert path.headings[-1] == 4 and path.turned[1:5].all()   # four turns first, at the start
+
+
+# ---------------------------------------------------------------- round robots
+
+def test_burger_straight_path_costs_what_the_grid_search_does():
+    # 2 m east along row 40 of an open 80 x 120 room, 1.95 m from the walls: graded cost 0 on
+    # both maps, no turn; both cost 40 x 0.05 = 2.0 m.
+    occ = walled(80, 120)
+    costmap = make_costmap(occ, RES, CostmapSettings.for_robot(BURGER))
+    _, grid_cost = _native.astar(costmap, (40, 30), (40, 70), visit_sensitivity=0.0)
+    path = lattice(occ, BURGER, centre(40, 30), centre(40, 70)[:2])
+    assert grid_cost == pytest.approx(2.0) and path.cost == pytest.approx(2.0)
+
+
+def test_burger_path_cost_close_to_the_grid_search_around_a_block():
+    # Around a 1 x 1 m block from (10, 10) to (50, 70), length only (cost_weight 0). The
+    # lattice's 16 headings go straighter than 8-connected moves: a (2, 1) step is sqrt 5 =
+    # 2.236 cells against 1 + sqrt 2 = 2.414, at most 7.4 % shorter; and it pays for its turns,
+    # which may cost it a little length. So its length lies within [0.92, 1.01] of the grid's.
+    occ = walled(60, 80)
+    occ[20:40, 30:50] = 100
+    costmap = make_costmap(occ, RES, CostmapSettings.for_robot(BURGER))
+    _, grid_cost = _native.astar(costmap, (10, 10), (50, 70), visit_sensitivity=0.0, cost_weight=0.0)
+    path = lattice(occ, BURGER, centre(10, 10), centre(50, 70)[:2], cost_weight=0.0)
+    assert 0.92 * grid_cost <= path.length_m <= 1.01 * grid_cost
+    assert path.cost == pytest.approx(path.length_m + path.turned_rad * 0.22 / 0.8)
+
+
+# ---------------------------------------------------------------- random maps
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_random_maps_paths_are_valid_and_deterministic(robot):
+    rng = np.random.default_rng(4)
+    found = 0
+    for trial in range(10):
+        occ = walled(50, 60)
+        for _ in range(8):
+            h, w = rng.integers(2, 12, 2)
+            r, c = rng.integers(1, 50 - h), rng.integers(1, 60 - w)
+            occ[r:r + h, c:c + w] = 100
+        occ[rng.random(occ.shape) < 0.02] = -1          # a few unknown cells
+        clear = _native.distance_transform((occ == 100).astype(np.uint8), RES) > 0.35
+        free = np.argwhere(clear & (occ == 0))             # every heading fits, even turning
+        a, b = free[rng.choice(len(free), 2, replace=False)]
+        start, goal = centre(*a, yaw=rng.uniform(-math.pi, math.pi)), centre(*b)[:2]
+        try:
+            path = lattice(occ, robot, start, goal)
+        except PlanningError as exc:
+            assert "unreachable" in str(exc), trial
+            continue
+        found += 1
+        again = lattice(occ, robot, start, goal)
+        for field in ("poses", "cells", "headings", "turned"):
+            assert np.array_equal(getattr(path, field), getattr(again, field)), (trial, field)
+        assert path.cost == again.cost
+    assert found >= 6
+
+
+def test_unknown_cells_are_never_entered():
+    # The gap filled with unknown cells: the centre may not cross them, the rooms are apart.
+    occ = two_rooms(8)
+    occ[26:34, 38:42] = -1
+    with pytest.raises(PlanningError, match="unreachable"):
+        lattice(occ, WAFFLE, centre(30, 10), centre(30, 70)[:2])
+    # Unknown cells beside a known 0.30 m strip, narrower than the box: the body may overlap
+    # them (they are no obstacles), its centre stays on known cells (check_path); as obstacles
+    # (unknown_is_obstacle) they leave the box no room.
+    occ = np.full((40, 80), -1, np.int8)
+    occ[16:22, 2:78] = 0
+    path = lattice(occ, WAFFLE, centre(18, 10), centre(18, 70)[:2])
+    assert path.length_m == pytest.approx(3.0)
+    with pytest.raises(PlanningError, match="start .* at heading 0 deg"):
+        lattice(occ, WAFFLE, centre(18, 10), centre(18, 70)[:2], unknown_is_obstacle=True)
+
+
+# ---------------------------------------------------------------- endpoints
+
+def test_endpoint_errors_name_the_endpoint():
+    occ = two_rooms(8)
+    occ[50, 20] = -1
+    settings = LatticeSettings.for_robot(WAFFLE)
+
+    def run(start, goal, goal_yaw=None):
+        return plan_lattice(occ, RES, ORIGIN, WAFFLE, start, goal, settings, goal_yaw=goal_yaw)
+
+    with pytest.raises(PlanningError, match=r"start \(10, 39\) is in an obstacle"):
+        run(centre(10, 39), centre(30, 70)[:2])           # in the dividing wall
+    with pytest.raises(PlanningError, match=r"goal \(10, 40\) is in an obstacle"):
+        run(centre(30, 10), centre(10, 40)[:2])
+    with pytest.raises(PlanningError, match=r"goal \(30, 90\) is outside the 60 x 80 grid"):
+        run(centre(30, 10), centre(30, 90)[:2])
+    with pytest.raises(PlanningError, match=r"start \(50, 20\) is in unknown space"):
+        run(centre(50, 20), centre(30, 70)[:2])
+    # Column 3's centre lies 0.175 m east of the west wall's edge (x = 0.05 m): 0.125 m.
+    # Facing west the box reaches 0.0765 m towards it (0.0485 m spare): fits. Facing east its
+    # back reaches 0.2045 m towards it, into the wall: collides.
+    assert len(run(centre(30, 3, yaw=math.pi), centre(30, 3)[:2]).poses) == 1
+    with pytest.raises(PlanningError, match=r"start \(30, 3\) at heading 0 deg: the footprint's box"):
+        run(centre(30, 3), centre(30, 20)[:2])
+    # Row 1's centre lies 0.025 m from the south wall, less than the box reaches at any heading
+    # (0.0765 m ahead, its least reach): no heading fits.
+    with pytest.raises(PlanningError, match=r"goal \(1, 10\): no heading fits"):
+        run(centre(30, 10), centre(1, 10)[:2])
+
+
+# ---------------------------------------------------------------- settings
+
+def test_settings_for_robot_and_validation():
+    s = LatticeSettings.for_robot(WAFFLE)
+    # 0.26 m/s cruise, min(0.8, 1.82) rad/s turning: 0.325 m per radian
+    assert s.cruise_speed_mps == 0.26 and s.turn_speed_radps == 0.8
+    assert s.turn_cost_m_per_rad == pytest.approx(0.325)
+    assert LatticeSettings.for_robot(BURGER, margin_m=0.03).margin_m == 0.03
+    for bad in (dict(headings=12), dict(margin_m=0.0), dict(turn_margin_m=-0.01),
+                dict(cost_weight=-1.0), dict(turn_speed_radps=0.0), dict(occupied_threshold=0)):
+        with pytest.raises(ConfigError, match=next(iter(bad))):
+            LatticeSettings(**bad).validate("lattice")
+    with pytest.raises(ConfigError, match="margin_m"):
+        plan_lattice(two_rooms(8), RES, ORIGIN, WAFFLE, centre(30, 10), centre(30, 70)[:2],
+                     LatticeSettings(margin_m=-1.0))
