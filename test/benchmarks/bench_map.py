@@ -10,6 +10,9 @@
    model on the 400 x 400 maps. Targets: <= 5 ms on 400 x 400, >= 50x Python.
 3. Exact Euclidean distance transform of a 2,000 x 2,000 grid, C++ (Felzenszwalb-Huttenlocher)
    against scipy.ndimage.distance_transform_edt.
+4. State-lattice A* (16 headings, the waffle_pi's oriented box) corner to corner on the 400 x 400
+   building of 2., from the occupancy grid (its distance field and graded costs included), and
+   its ratio to the 2-D A* of 2. in the same run.
 Setup happens outside the timed sections; each figure is the median of several repeats.
 """
 import heapq
@@ -26,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import write  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
+from turtlebot_recon.planning import LatticeSettings, plan_lattice  # noqa: E402
 from turtlebot_recon.robot import load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 from turtlebot_recon.sim.simulator import SimSettings, Simulator  # noqa: E402
@@ -109,9 +113,10 @@ def inflated(occ: np.ndarray) -> np.ndarray:
     return _native.inflate(occ, RES, 0.1, 0.4, 5.0)
 
 
-def building_costmap(n: int, room: int = 80, wall: int = 2, door: int = 20, seed: int = 3) -> np.ndarray:
-    """A building: 4 m square rooms (walls 0.1 m) with a 1 m door in two walls each and two
-    pieces of furniture per room; a corner-to-corner plan crosses n / room rooms each way."""
+def building_occupancy(n: int, room: int = 80, wall: int = 2, door: int = 20, seed: int = 3) -> np.ndarray:
+    """A building (int8 occupancy): 4 m square rooms (walls 0.1 m) with a 1 m door in two walls
+    each and two pieces of furniture per room; a corner-to-corner plan crosses n / room rooms
+    each way."""
     rng = np.random.default_rng(seed)
     occ = np.zeros((n, n), np.int8)
     for k in range(0, n, room):
@@ -130,7 +135,11 @@ def building_costmap(n: int, room: int = 80, wall: int = 2, door: int = 20, seed
                 occ[r:r + h, c:c + w] = 100
     occ[:wall, :] = occ[-wall:, :] = 100
     occ[:, :wall] = occ[:, -wall:] = 100
-    return inflated(occ)
+    return occ
+
+
+def building_costmap(n: int) -> np.ndarray:
+    return inflated(building_occupancy(n))
 
 
 def random_costmap(n: int, seed: int = 1) -> np.ndarray:
@@ -202,6 +211,19 @@ def bench_astar() -> dict:
     return out
 
 
+def bench_lattice(astar_ms_400: float) -> dict:
+    """The lattice plan across the 400 x 400 building, start and goal of bench_astar's plan,
+    the robot facing east at the start."""
+    robot = load_robot("turtlebot3_waffle_pi")
+    occ, settings = building_occupancy(400), LatticeSettings.for_robot(robot)
+    start, goal = ((10 + 0.5) * RES, (10 + 0.5) * RES, 0.0), ((389 + 0.5) * RES, (389 + 0.5) * RES)
+    path = plan_lattice(occ, RES, (0.0, 0.0), robot, start, goal, settings)
+    assert tuple(path.cells[-1]) == (389, 389)
+    ms = 1e3 * median_time(lambda: plan_lattice(occ, RES, (0.0, 0.0), robot, start, goal, settings), 11)
+    return {"lattice_ms_400": ms, "lattice_ratio_vs_astar": ms / astar_ms_400,
+            "lattice_path_m_400": path.length_m, "lattice_turned_rad_400": path.turned_rad}
+
+
 def bench_edt() -> dict:
     rng = np.random.default_rng(2)
     mask = (rng.random((2000, 2000)) < 0.01).astype(np.uint8)
@@ -217,6 +239,7 @@ def main():
     figures = {}
     figures.update(bench_scans())
     figures.update(bench_astar())
+    figures.update(bench_lattice(figures["astar_ms_400"]))
     figures.update(bench_edt())
     write("map", figures)
 
