@@ -30,6 +30,8 @@ from turtlebot_recon.exploration.strategies import make_strategy
 from turtlebot_recon.planning import INSCRIBED, CostmapSettings, dijkstra, make_costmap
 from turtlebot_recon.robot import load_robot
 
+import test_frontiers
+
 RES = 0.05
 FREE, UNKNOWN = 0, -1
 ROBOT = (1.525, 1.025, 0.0)        # cell (20, 30)
@@ -51,14 +53,15 @@ def strip(left_unknown=True, right_unknown=True):
 class Run:
     """An Explorer fed 10 Hz ticks; ``log`` collects (level, line)."""
 
-    def __init__(self, grid=None, supervisor=SUPERVISOR, **settings):
+    def __init__(self, grid=None, supervisor=SUPERVISOR, strategy="nearest", pose=ROBOT, **settings):
         self.log = []
-        self.ex = Explorer(ExplorerSettings(**settings), FrontierSettings(), make_strategy("nearest"),
+        self.ex = Explorer(ExplorerSettings(**settings), FrontierSettings(), make_strategy(strategy),
                            GoalBook(GoalBookSettings()), supervisor, load_robot("turtlebot3_burger"),
                            log=lambda level, msg, *args: self.log.append((level, msg % args)))
         self.grid = grid or strip()
+        self.pose = pose
         self.i = 0
-        self.ex.start(self.now, ROBOT)
+        self.ex.start(self.now, pose)
 
     @property
     def now(self):
@@ -66,8 +69,8 @@ class Run:
 
     def tick(self, events=(), bumper=None):
         """One tick; its (explore outputs, supervise outputs)."""
-        a = self.ex.explore(ExploreInputs(self.now, ROBOT, self.grid, None, tuple(events)))
-        b = self.ex.supervise(SuperviseInputs(self.now, ROBOT, bumper))
+        a = self.ex.explore(ExploreInputs(self.now, self.pose, self.grid, None, tuple(events)))
+        b = self.ex.supervise(SuperviseInputs(self.now, self.pose, bumper))
         self.i += 1
         return a, b
 
@@ -184,9 +187,13 @@ def test_succeeded_marks_success_and_triggers_a_cycle_at_once():
     assert a.cycled                           # the goal ended: a cycle right away
     assert run.ex.book.successes(LEFT_GOAL) == 1
     assert run.lines("explorer: goal (1.03, 1.03) reached")
-    # the map did not change, so the same frontier is chosen again and sent as a new goal
-    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    assert again.xy == approx_xy(LEFT_GOAL) and again.seq == goal.seq + 1 and again.retries == 0
+    # the map did not change: (20, 20) sees every cell of the left frontier (column 19, at
+    # most 20 cells away), and looking from there did not reveal them; with none left for
+    # another viewpoint to see, it is given up and the right frontier's goal goes out at once
+    (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == goal.seq + 1 and nxt.retries == 0
+    left, right = run.ex.frontiers
+    assert not left.reachable and right.reachable
 
 
 def test_goal_whose_frontier_disappears_is_dropped_for_the_next():
@@ -211,6 +218,54 @@ def test_no_usable_frontier_cancels_the_goal():
     actions = run.until_cycle()
     assert CancelGoal(goal.seq, active=True) in actions
     assert run.ex.sent is None and run.ex.goal_available is False
+
+
+# ------------------------------------------------------------------------- viewpoints
+
+def slab_room():
+    """test_frontiers' slab_room: S (rows 1..29, the robot's), an unknown slab (rows 30..32,
+    cols 10..45) between walls, a strip 3 cells wide north of it (rows 33..35, inscribed)
+    open only to E (cols 47..68). The slab's south face (row 30) faces S; its north face
+    (row 32) is seen only along the strip, from E. Both snap to (29, 27), from which the
+    slab hides the north face."""
+    return Grid(test_frontiers.slab_room(), RES, (0.0, 0.0))
+
+
+def test_an_arrival_that_does_not_reveal_the_frontier_sends_the_next_viewpoint():
+    run = Run(grid=slab_room(), strategy="recon", pose=(1.775, 0.525, 0.0))     # cell (10, 35)
+    first = run.until_goal()
+    assert first.xy == approx_xy((1.375, 1.475))                                  # (29, 27)
+    run.pose = (1.375, 1.475, 0.0)
+    a, _ = run.tick(events=[NavEvent(first.seq, "succeeded")])
+    # the map did not change: the south face, in view of (29, 27), is given up; the north
+    # face, which the slab hid, gets its viewpoint in E, (36, 53), looking along the strip
+    assert a.cycled
+    (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert nxt.xy == approx_xy((2.675, 1.825)) and nxt.seq == first.seq + 1      # (36, 53)
+    south, north = run.ex.frontiers
+    assert not south.reachable and north.reachable and run.ex.goal_available
+
+
+def test_a_frontier_no_reachable_cell_sees_is_given_up_and_the_run_ends():
+    # A sealed box (walls rows 5..15, cols 40..50) in the fully known strip holds free cells
+    # (rows 6..9) and unknown ones (rows 10..14): a frontier on row 10 that the robot can
+    # neither reach nor see from anywhere it reaches.
+    grid = strip(left_unknown=False, right_unknown=False)
+    occ = grid.data
+    occ[5:16, 40:51] = 100
+    occ[6:10, 41:50] = FREE
+    occ[10:15, 41:50] = UNKNOWN
+    run = Run(grid=grid, supervisor=SupervisorSettings(spin_angle_deg=0.0, finish_empty_cycles=2,
+                                                       return_home=False))
+    for _ in range(30):
+        a, b = run.tick()
+        assert not [x for x in a.actions + b.actions if isinstance(x, SendGoal)]
+        if b.done is not None:
+            break
+    (f,) = run.ex.frontiers
+    assert not f.reachable and run.ex.goal_available is False
+    assert b.done == "no reachable frontier for 2 explorer cycles"
+    assert run.lines("explorer: 1 frontiers, 0 seen from a reachable viewpoint, none usable")
 
 
 # ------------------------------------------------------------------- supervisor commands

@@ -1,4 +1,5 @@
-"""Frontiers: detection, clustering, goal points, reachability, extension and information gain.
+"""Frontiers: detection, clustering, goal points, viewpoints, reachability, extension and
+information gain.
 
 Maps are drawn by hand (int8 ROS occupancy, row 0 = smallest y) and the expected cells and
 numbers are worked out in the comments. ``visible_unknown`` (C++) is checked against a
@@ -16,6 +17,8 @@ from turtlebot_recon.config import ConfigError, from_dict
 # goal cells of those tests); the default 128 keeps goals 0.135 m further off walls.
 from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, detect,
                                          find_frontier_cells)
+from turtlebot_recon.exploration.goals import GoalBook
+from turtlebot_recon.geometry import cell_to_xy
 from turtlebot_recon.planning import CostmapSettings, dijkstra, make_costmap, nearest_accessible
 from turtlebot_recon.robot import load_robot
 
@@ -207,7 +210,7 @@ def test_path_cost_is_the_dijkstra_field_and_gain_the_ray_count(burger_costmap_s
     assert [g.path_cost_m for g in again] == [2 * f.path_cost_m for f in frontiers]
 
 
-def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_costmap_settings):
+def test_frontier_behind_a_gap_narrower_than_the_robot_is_seen_through_it(burger_costmap_settings):
     # Door of 2 cells (0.1 m) for a robot 0.21 m wide: every door cell is 1 cell from a door
     # post, inside the 3.5-cell inscribed radius, so room B is cut off.
     occ = two_rooms(door_rows=(10, 11))
@@ -215,14 +218,24 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_unreachable(burger_cos
     assert (costmap[10:12, 28:31] >= 253).all()
     a, b = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), FrontierSettings(max_cost=252))
     assert a.reachable and math.isfinite(a.path_cost_m)
-    assert not b.reachable
-    assert b.path_cost_m == math.inf
-    # Still reported, at the nearest accessible cell to its representative (20, 44): (19, 44)
-    # (5.1 cells = 0.255 m from the wall cell (20, 39), so below inscribed). Measured along
-    # cells the robot could stand on, room A is only reached through the door: not at all.
-    assert b.goal_cell == (19, 44)
+    # Measured along cells the robot could stand on, room A is only reached through the
+    # door: B's snap finds nothing. But room A sees B's gap through the door: the ray
+    # (20, 40) -> (8, 24) (3 rows per 4 cols) crosses the wall's cols 28..30 on rows 11 and
+    # 10, the door. B's goal is that viewpoint (the nearer cells of room A see no gap cell
+    # through the door), reached the long way round the door post's band: 0.78 m.
+    field = dijkstra(costmap, (10, 14), resolution=RES)
+    assert b.goal_cell == (8, 24) and b.reachable
+    assert b.path_cost_m == float(field[8, 24]) == pytest.approx(0.785, abs=1e-3)
     assert costmap[b.goal_cell] <= 252
-    # Widen the door to 12 cells (0.6 m): B becomes reachable at the same goal.
+    # Close the door: no cell the robot reaches sees B's gap, and B is given up (still
+    # reported, unreachable, at the nearest cell it could stand on beside its representative
+    # (20, 44): (19, 44), 5.1 cells = 0.255 m from the wall cell (20, 39)).
+    occ[10:12, 28:31] = WALL
+    _, b_shut = detect(occ, RES, (0.0, 0.0), make_costmap(occ, RES, burger_costmap_settings),
+                       (10, 14), FrontierSettings(max_cost=252))
+    assert not b_shut.reachable and b_shut.path_cost_m == math.inf
+    assert b_shut.goal_cell == (19, 44)
+    # Widen the door to 12 cells (0.6 m): B's snap reaches it, on its own side.
     wide = two_rooms(door_rows=(6, 17))
     _, b_wide = detect(wide, RES, (0.0, 0.0), make_costmap(wide, RES, burger_costmap_settings),
                        (10, 14), FrontierSettings(max_cost=252))
@@ -293,11 +306,19 @@ def test_snap_searches_past_an_unconnected_nearest_cell(burger_costmap_settings)
 
 def test_no_accessible_cell_within_the_snap_radius(burger_costmap_settings):
     # A snap radius of 0.01 m (0.2 cells) holds only the representative (20, 14), an unknown
-    # cell: no goal cell, so the frontier is reported at the representative, unreachable.
+    # cell: the snap finds no goal cell, and the goal is the nearest cell that sees the gap
+    # (row 20, cols 10..19). Row 19 below the gap is 1 cell from it; of its cells, (19, 12)
+    # and (19, 17) lie 3.2 cells (0.158 m) from the wall ends (20, 9), (20, 20): inscribed;
+    # cols 13..16 pass. Of those, 14 and 15 are nearest the gap's centroid (20, 14.5) and the
+    # raster order takes (19, 14).
     occ = gap_room()
     costmap = make_costmap(occ, RES, burger_costmap_settings)
-    settings = FrontierSettings(snap_radius_m=0.01)   # 0.2 cells: only the target itself
+    settings = FrontierSettings(snap_radius_m=0.01, max_cost=252)   # 0.2 cells: only the target
     (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), settings)
+    assert f.goal_cell == (19, 14) and f.reachable
+    # Nothing reachable (a robot whose field is empty): reported at the representative.
+    cut_off = np.full(occ.shape, np.inf, np.float32)
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), settings, cost_to_come=cut_off)
     assert f.goal_cell == (20, 14)
     assert not f.reachable and f.path_cost_m == math.inf
 
@@ -342,6 +363,150 @@ def test_extension_into_unknown(burger_costmap_settings):
     # With the default field (unknown forbidden) the extended point (25, 14) snaps back to
     # the known side: (19, 14) is 6 cells away, (19, 13) and (19, 15) sqrt(37).
     assert goal(occ, 0.25, None) == ((19, 14), True)
+
+
+# ---------------------------------------------------------------- detect: viewpoints
+
+def slot_room():
+    """60 x 60 cells in 1-cell walls; the robot's side is rows 1..29. A wall 2 cells thick
+    (rows 30, 31) has a slot 6 cells (0.3 m) wide, cols 27..32, walled on both sides (cols 26
+    and 33) up to row 37 and free up to there; everything beyond is unknown. The only
+    frontier is row 38, cols 26..33 (8 cells; the end ones touch the slot diagonally)."""
+    occ = np.full((60, 60), FREE, np.int8)
+    occ[[0, -1], :] = occ[:, [0, -1]] = WALL
+    occ[30:32, :] = WALL
+    occ[32:, 1:-1] = UNKNOWN
+    occ[30:38, [26, 33]] = WALL
+    occ[30:38, 27:33] = FREE
+    return occ
+
+
+def slab_room():
+    """60 x 70 cells in 1-cell walls: clutter whose inside was never seen. South region S,
+    rows 1..29 (the robot's). A slab of unknown cells, rows 30..32, cols 10..45, closed by
+    walls at col 9 (rows 30..36) and col 46 (rows 30..32). North of it a strip 3 cells wide
+    (rows 33..35, inscribed all along) under a wall block (rows 36..58, cols 1..46), open to
+    the east region E (cols 47..68, rows 1..58, joined to S). Two frontiers: the slab's
+    south face (row 30, cols 10..45), which S sees, and its north face (row 32), which only
+    the rays along the strip reach, from E."""
+    occ = np.full((60, 70), FREE, np.int8)
+    occ[[0, -1], :] = occ[:, [0, -1]] = WALL
+    occ[30:33, 10:46] = UNKNOWN
+    occ[30:37, 9] = WALL
+    occ[30:33, 46] = WALL
+    occ[36:, 1:47] = WALL
+    return occ
+
+
+def reached(*cells):
+    """GoalBook.tried() after reaching the centres of ``cells`` (attempt radius 0.4 m)."""
+    book = GoalBook()
+    for i, cell in enumerate(cells):
+        book.succeeded(cell_to_xy(cell, RES, (0.0, 0.0)), float(i))
+    return book.tried()
+
+
+def sees(occ, viewpoint, cells, radius=70.0):
+    """Whether a ray of visible_cells from ``viewpoint`` over free cells reaches one of
+    ``cells`` (made transparent here, as frontier cells are)."""
+    blocking = (occ != FREE).astype(np.uint8)
+    blocking[tuple(np.asarray(cells).T)] = 0
+    seen = _native.visible_cells(blocking, np.array([viewpoint], np.int32), radius, beams=180)
+    return bool(seen[tuple(np.asarray(cells).T)].any())
+
+
+def test_a_frontier_seen_through_a_slot_narrower_than_the_robot_gets_a_viewpoint(
+        burger_costmap_settings):
+    # The slot (0.3 m) is narrower than the burger's inscribed band (2 x 0.176 m): all of it
+    # is inscribed, and the snap's walk from the frontier (over passable or unknown cells,
+    # 1 m) finds no cell the robot reaches. The robot's side sees up the slot: the goal is
+    # the nearest cell that does with cost <= 128, on row 24 (cost 113; row 25 costs 141),
+    # 14 rows below the frontier. Its cols 26..33 are all 14 cells from a frontier cell; 29
+    # and 30 are nearest the frontier's centroid (38, 29.5), and the raster order takes 29.
+    occ = slot_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    assert (costmap[30:38, 27:33] == 253).all()
+    assert costmap[24, 29] == 113 and costmap[25, 29] == 141
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 30), FrontierSettings())
+    assert f.goal_cell == (24, 29) and f.reachable
+    assert f.path_cost_m == float(dijkstra(costmap, (10, 30), resolution=RES)[24, 29])
+    assert sees(occ, f.goal_cell, f.cells)
+    # A wall across the slot (row 34): nothing the robot reaches sees the frontier any more.
+    # It is given up: reported (at its representative: no cell on its side either), not used.
+    occ[34, 27:33] = WALL
+    (f,) = detect(occ, RES, (0.0, 0.0), make_costmap(occ, RES, burger_costmap_settings),
+                  (10, 30), FrontierSettings())
+    assert not f.reachable and f.path_cost_m == math.inf and f.goal_cell == (38, 29)
+
+
+def test_a_frontier_a_reached_goal_did_not_reveal_gets_another_viewpoint(burger_costmap_settings):
+    occ = slab_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    robot = (10, 35)
+    # Both faces snap to (29, 27): the north face's walk runs 3 cells through the unknown
+    # slab (the strip beside it is inscribed), the south face's is 1 cell. From (29, 27) the
+    # slab hides the north face: a robot standing there does not reveal it.
+    south, north = detect(occ, RES, (0.0, 0.0), costmap, robot, FrontierSettings())
+    assert (south.cells[:, 0] == 30).all() and (north.cells[:, 0] == 32).all()
+    assert south.goal_cell == north.goal_cell == (29, 27) and north.reachable
+    assert sees(occ, (29, 27), south.cells) and not sees(occ, (29, 27), north.cells)
+    # Reached once and both faces are still there. The south face's cells were in view of
+    # (29, 27): looking again from there shows nothing new, and no other viewpoint sees
+    # cells it did not, so it is given up. The north face was hidden: its next goal is the
+    # nearest cell that sees it from outside the tried disc, (36, 53) in E, looking along
+    # the strip (7 cols from the wall block at col 46: cost 105 <= 128).
+    south, north = detect(occ, RES, (0.0, 0.0), costmap, robot, FrontierSettings(),
+                          tried=reached((29, 27)))
+    assert not south.reachable and south.goal_cell == (29, 27)
+    assert north.reachable and north.goal_cell == (36, 53) and costmap[36, 53] == 105
+    assert sees(occ, (36, 53), north.cells)
+    assert north.path_cost_m == float(dijkstra(costmap, robot, resolution=RES)[36, 53])
+    # Reached too, and the north face still stands: nothing untried sees what the two did
+    # not, so it is given up as well: nothing reachable is left to see.
+    south, north = detect(occ, RES, (0.0, 0.0), costmap, robot, FrontierSettings(),
+                          tried=reached((29, 27), (36, 53)))
+    assert not south.reachable and not north.reachable
+
+
+def test_a_blacklisted_goal_gives_way_to_another_viewpoint(burger_costmap_settings):
+    # The navigator failed at (29, 27) and the goal was blacklisted (0.5 m disc). Nothing
+    # was seen from there, so every cell of both faces still counts. The south face's next
+    # viewpoint is on row 29 (1 cell below it, cost 105), outside the disc: more than 10
+    # cells from col 27, i.e. col <= 16 or >= 38; nearest its centroid (30, 27.5) is col 38.
+    # The north face's is (36, 53), as after an arrival.
+    occ = slab_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    book = GoalBook()
+    book.blacklist(cell_to_xy((29, 27), RES, (0.0, 0.0)), 0.0)
+    south, north = detect(occ, RES, (0.0, 0.0), costmap, (10, 35), FrontierSettings(),
+                          tried=book.tried())
+    assert south.reachable and south.goal_cell == (29, 38)
+    assert north.reachable and north.goal_cell == (36, 53)
+    assert not book.is_blacklisted(south.goal) and not book.is_blacklisted(north.goal)
+
+
+@pytest.mark.parametrize("max_cost", [128, 252])
+def test_viewpoints_run_out(burger_costmap_settings, max_cost):
+    # Reach each viewpoint of the slot's frontier in turn on an unchanging map (the worst
+    # case: nothing is ever revealed). Every new one lies outside the discs of those before
+    # and sees frontier cells; after a few the frontier is given up instead of sending the
+    # robot round every cell that sees it.
+    occ = slot_room()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    goals = []
+    for _ in range(10):
+        (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 30), FrontierSettings(max_cost=max_cost),
+                      tried=reached(*goals))
+        if not f.reachable:
+            break
+        assert all(math.dist(f.goal_cell, g) * RES > 0.4 for g in goals)
+        assert sees(occ, f.goal_cell, f.cells)
+        goals.append(f.goal_cell)
+    assert not f.reachable
+    # max_cost 128: (24, 29), whose rays reach 7 of the 8 cells, all but (38, 26); then
+    # (23, 37), which sees (38, 26) past the slot's left wall; then all 8 are spent. 252:
+    # (28, 29), 4 rows nearer the slot, reaches all 8 at once.
+    assert goals == {128: [(24, 29), (23, 37)], 252: [(28, 29)]}[max_cost]
 
 
 def test_no_frontiers_and_bad_input(burger_costmap_settings):

@@ -14,7 +14,9 @@ nothing blocks. A node (later) turns Inputs from topics and Commands into topics
   clockwise), i.e. for angle / speed seconds, so the first map is all round.
 - EXPLORE: the explorer picks goals, the navigator drives ("explore" command). Finish after
   ``finish_empty_cycles`` consecutive explorer cycles without a reachable frontier (seed 004:
-  10), or when ``time_budget_s`` has passed since the first tick.
+  10), i.e. with nothing reachable left to see (a frontier is reachable while a cell the
+  robot reaches sees some of it: ``frontiers.detect``), or when ``time_budget_s`` has passed
+  since the first tick.
 - Stuck watchdog (seed 004: moved < 0.3 m in 10 s) while the robot should move (EXPLORE or
   RETURN_HOME with the navigator active, NUDGE, DRIFT) escalates one rung of the ladder:
   NUDGE -> BUMPER_BACKOFF -> DRIFT -> blacklist. A rung that succeeds returns to the mission
@@ -132,7 +134,8 @@ class Inputs:
     now_s: float
     pose: tuple                            # (x, y, yaw)
     nav: str                               # navigator status: idle | active | succeeded | failed
-    goal_available: bool                   # the explorer found a reachable frontier this cycle
+    goal_available: bool                   # the explorer has a goal this cycle (a reachable
+                                           # frontier its strategy takes)
     bumper: Optional[int]                  # pressed since the last tick: 0 left, 1 centre, 2 right
     free_space: Callable[[float, float], bool]     # (x, y) free and clear (cost < inscribed)
     scan_clearance: Optional[Callable[[float], float]]   # robot-frame bearing -> free m; None: no scan

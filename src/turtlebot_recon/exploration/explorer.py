@@ -7,10 +7,11 @@ the end) for the node to carry out in order:
 - ``explore(ExploreInputs)``: the navigator's results for our goals (GoalBook success on
   arrival, failure on abort; retries, below), then, every ``cycle_period_s`` and at once when
   a goal ended, the explorer cycle: costmap from the latest map, the robot's cell,
-  ``frontiers.detect``, a ``Context``, the strategy's choice and the GoalBook's bookkeeping
-  (attempt on send; failure when an obstacle appears at the goal twice; failure + blacklist
-  when the progress watchdog fires; drop when the goal's frontier was explored on the way or
-  it was cut off). A new choice replaces the navigator's goal.
+  ``frontiers.detect`` (past the goals tried so far: ``GoalBook.tried``), a ``Context``, the
+  strategy's choice (none: the supervisor's finish rule counts an empty cycle) and the
+  GoalBook's bookkeeping (attempt on send; failure when an obstacle appears at the goal
+  twice; failure + blacklist when the progress watchdog fires; drop when the goal's frontier
+  was explored on the way or it was cut off). A new choice replaces the navigator's goal.
 - ``supervise(SuperviseInputs)``: ``Supervisor.tick`` (spin, explore, recoveries, finish,
   return home); its command becomes a twist, a navigator goal, the explorer's goals, or the
   end. The node calls it with the time and pose read after the cycle, which takes wall time,
@@ -322,7 +323,7 @@ class Explorer:
         costmap = make_costmap(occ, res, self.costmap_settings)
         cell = xy_to_cell(pose[:2], res, origin)
         field = robot_cost_to_come(costmap, cell, res, self.fs.snap_radius_m)
-        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field)
+        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried())
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
                       visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1)
@@ -333,14 +334,14 @@ class Explorer:
         self._check_active_goal(ctx, frontiers, now)
         self.choice = self.strategy.choose(frontiers, ctx, self.book)
         self.cycles += 1
-        self.goal_available = self.choice is not None
+        self.goal_available = self.choice is not None      # the supervisor's finish rule
         if not frontiers:
             self._log_throttled(10.0, now, INFO, "explorer: no frontier in the map (%d known cells)",
                                 int((occ >= 0).sum()))
         elif self.choice is None:
-            self._log_throttled(10.0, now, INFO, "explorer: %d frontiers, %d with a reachable goal, none "
-                                "usable (blacklisted, too close to obstacles or visited)", len(frontiers),
-                                sum(f.reachable for f in frontiers))
+            self._log_throttled(10.0, now, INFO, "explorer: %d frontiers, %d seen from a reachable "
+                                "viewpoint, none usable (blacklisted or too close to obstacles)",
+                                len(frontiers), sum(f.reachable for f in frontiers))
         if self.mode == "explore":
             self._pursue(ctx, pose)
         active = self.book.active

@@ -15,13 +15,21 @@ on (cost <= ``max_cost``, seed 001's "nearest accessible point") AND reach (a fi
 cost-to-come in the robot's Dijkstra field), searching outward past accessible cells that
 are not connected to the robot. "Nearest" is measured along a path of such cells (or
 unknown ones) within ``snap_radius_m``, not in a straight line, so that a snap never jumps a
-wall: a frontier behind a gap narrower than the robot finds no reachable cell on its side
-and comes back with ``reachable=False`` (not dropped, so that callers can report it). With
-the default field (unknown space forbidden) an extended point snaps back to the known side
-of the frontier; the extension moves the goal itself only for a caller whose field crosses
-unknown space (a planner with unknown_cost >= 0, as Nav2's allow_unknown in seed 004). Gain
-is the number of unknown cells a lidar at the goal cell would see (C++ ray casting,
-``_native.visible_unknown``).
+wall: a frontier behind a gap narrower than the robot finds no reachable cell on its side.
+With the default field (unknown space forbidden) an extended point snaps back to the known
+side of the frontier; the extension moves the goal itself only for a caller whose field
+crosses unknown space (a planner with unknown_cost >= 0, as Nav2's allow_unknown in seed
+004).
+
+A goal is a viewpoint: a cell the robot stands on and reaches, from which it looks at the
+frontier. Where the snap finds none, or its cell lies within a tried disc (a goal reached
+before, or blacklisted), the goal is the nearest cell that sees a frontier cell the reached
+goals did not, by line of sight over known-free cells within ``sensor_range_m``
+(``viewpoints``): a frontier seen through a gap narrower than the robot gets a goal in front
+of the gap, and one that an arrival did not reveal (clutter hid it) gets another viewpoint.
+A frontier no such cell sees is given up: it comes back with ``reachable=False`` (not
+dropped, so that callers can report it). Gain is the number of unknown cells a lidar at the
+goal cell would see (C++ ray casting, ``_native.visible_unknown``).
 
 Grids are nav_msgs/OccupancyGrid order: ``(rows, cols)``, row 0 at the smallest y; int8
 occupancy -1 unknown, 0..100; cell (r, c) has its centre at origin + ((c + 0.5) res,
@@ -41,6 +49,7 @@ from ..config import positive, require
 from ..geometry import cell_to_xy, inside
 from ..planning import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, dijkstra,
                         nearest_accessible)
+from .viewpoints import Tried, Viewpoints
 
 Cell = Tuple[int, int]
 Point = Tuple[float, float]
@@ -87,12 +96,13 @@ class Frontier:
     centroid: Point          # (x, y) m, mean of the cells' centres
     closest: Point           # (x, y) m of the frontier cell nearest (Euclidean) to the robot
     goal: Point              # (x, y) m of goal_cell's centre
-    goal_cell: Cell          # (row, col): the reachable cell nearest the representative point;
-                             # else the nearest one the robot could stand on; else the
-                             # representative cell itself
+    goal_cell: Cell          # (row, col): the reachable cell nearest the representative point,
+                             # or a viewpoint (module docstring); given up: the snap's cell
+                             # (the nearest one the robot could stand on, else the
+                             # representative cell itself)
     gain: int                # unknown cells visible from goal_cell within sensor_range_m
     path_cost_m: float       # cost-to-come from the robot to goal_cell; inf if unreachable
-    reachable: bool          # a reachable goal cell was found (path_cost_m finite)
+    reachable: bool          # a reachable goal was found (path_cost_m finite); False: given up
 
     def __repr__(self) -> str:
         return (f"Frontier(id={self.id}, size={self.size}, centroid=({self.centroid[0]:.2f}, "
@@ -137,7 +147,7 @@ def cluster(mask: np.ndarray, min_size: int = 1) -> List[np.ndarray]:
 
 def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
            costmap: np.ndarray, robot_cell: Cell, settings: FrontierSettings = FrontierSettings(),
-           cost_to_come: Optional[np.ndarray] = None) -> List[Frontier]:
+           cost_to_come: Optional[np.ndarray] = None, tried: Tried = Tried()) -> List[Frontier]:
     """Frontiers of ``occupancy`` with goals, gains and path costs from ``robot_cell``.
 
     occupancy: int8 (rows, cols); resolution: m per cell; origin: (x, y[, yaw]) of cell
@@ -146,7 +156,9 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     from the robot (e.g. ``dijkstra`` with the caller's visit penalty); by default
     ``dijkstra(costmap, robot_cell)``, computed once here. If the robot's cell is impassable
     (inscribed, when it brushes a wall), that field starts from the nearest passable cell
-    within ``snap_radius_m``; with none, every frontier is unreachable.
+    within ``snap_radius_m``; with none, every frontier is unreachable. tried: the goals
+    reached and blacklisted so far (``GoalBook.tried``): a snapped goal in a tried disc gives
+    way to a viewpoint that sees what the tried goals did not (``viewpoints``).
     """
     occupancy = np.asarray(occupancy)
     if occupancy.ndim != 2:
@@ -168,18 +180,26 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
             raise ValueError(f"detect: cost_to_come has shape {cost_to_come.shape}, occupancy "
                              f"{occupancy.shape}")
 
-    clusters = cluster(find_frontier_cells(occupancy, settings.free_threshold),
-                       settings.min_size_cells)
+    frontier = find_frontier_cells(occupancy, settings.free_threshold)
+    clusters = cluster(frontier, settings.min_size_cells)
     if not clusters:
         return []
     unknown = occupancy < 0
     robot = np.array(robot_cell, dtype=float)
+    viewpoints = Viewpoints(occupancy, costmap, cost_to_come, frontier, resolution, origin, tried,
+                            settings.sensor_range_m / resolution, settings.gain_beams,
+                            settings.free_threshold, settings.max_cost)
     goals: List[Tuple[Cell, bool]] = []
     for cells in clusters:
         representative = _representative_cell(cells)
         target = _extend_into_unknown(representative, robot, unknown,
                                       settings.extend_into_unknown_m / resolution)
-        goals.append(_snap(costmap, cost_to_come, [target, representative], settings, resolution))
+        goal, reachable = _snap(costmap, cost_to_come, [target, representative], settings,
+                                resolution)
+        if not reachable or tried.covers(cell_to_xy(goal, resolution, origin)):
+            view = viewpoints.find(cells)
+            goal, reachable = (goal, False) if view is None else (view, True)
+        goals.append((goal, reachable))
     gains = _native.visible_unknown(occupancy, np.array([g for g, _ in goals], dtype=np.int32),
                                     settings.sensor_range_m / resolution,
                                     beams=settings.gain_beams,

@@ -29,6 +29,7 @@ from scipy.spatial import cKDTree
 
 from ..config import positive, require
 from ..geometry import cells_to_points, inside
+from .viewpoints import Tried
 
 if TYPE_CHECKING:  # pragma: no cover
     from .frontiers import Frontier
@@ -186,6 +187,18 @@ class GoalBook:
     def failure_points(self) -> np.ndarray:
         """Every recorded failure as a float (n, 2) array of x, y."""
         return np.asarray(self._failures, dtype=float).reshape(-1, 2)
+
+    def tried(self) -> Tried:
+        """The goals ``frontiers.detect`` looks past: every success (its view is spent; no new
+        viewpoint within attempt_radius_m of it) and every blacklist entry in force (none
+        within blacklist_radius_m)."""
+        s = self.settings
+        reached = np.asarray([p for p, _ in self._successes], dtype=float).reshape(-1, 2)
+        blacklisted = np.asarray([e.xy for e in self.entries()], dtype=float).reshape(-1, 2)
+        discs = np.concatenate([
+            np.c_[reached, np.full(len(reached), s.attempt_radius_m)],
+            np.c_[blacklisted, np.full(len(blacklisted), s.blacklist_radius_m)]])
+        return Tried(reached=reached, discs=discs)
 
     def attempt_weight(self, xy: Point, decrement: float = 0.2, floor: float = 0.01,
                        radius_m: Optional[float] = None) -> float:

@@ -19,8 +19,9 @@ Cell = Tuple[int, int]
 
 
 def reachable_only(frontiers: Sequence[Frontier]) -> List[Frontier]:
-    """The clusters the frontier search found a reachable goal for: one behind a gap
-    narrower than the robot is never chased, whatever point a strategy would pick in it."""
+    """The clusters the frontier search found a reachable goal for: one that no cell the
+    robot reaches sees (given up) is never chased, whatever point a strategy would pick in
+    it."""
     return [f for f in frontiers if f.reachable]
 
 

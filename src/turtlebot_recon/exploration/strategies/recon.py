@@ -30,7 +30,6 @@ class ReconSettings:
     visit_weight_m_per_visit: float = 0.5  # per pass already driven near the goal: a frontier
                                            # that survived passes is likely a sensor shadow
     visit_radius_m: float = 0.5            # "near the goal" for the visit count
-    max_arrivals: int = 2                  # goals reached this often nearby are not chosen again
     use_tour: bool = True                  # order all clusters as a tour (false: least first leg)
     tour_max_clusters: int = 20            # the cheapest first legs enter the tour (n Dijkstras)
     tour_cell_m: float = 0.1               # m, cells of the goal-to-goal Dijkstras: the map's
@@ -45,8 +44,6 @@ class ReconSettings:
                     "hysteresis_m", "hysteresis_ratio"):
             require(getattr(self, key) >= 0, src, key, "must be >= 0")
         positive(src, self, "visit_radius_m", "match_radius_m", "tour_cell_m")
-        require(isinstance(self.max_arrivals, int) and self.max_arrivals >= 1, src,
-                "max_arrivals", "must be an integer >= 1")
         require(isinstance(self.tour_max_clusters, int) and self.tour_max_clusters >= 1, src,
                 "tour_max_clusters", "must be an integer >= 1")
 
@@ -66,12 +63,12 @@ class Recon:
     is kept while the best tour that starts with it is at most max(hysteresis_m,
     hysteresis_ratio * |best|) longer than the best tour.
 
-    Candidates: usable goals (reachable, affordable, not blacklisted) not yet reached
-    max_arrivals times (a frontier that survived the visits cannot be cleared from there);
-    the tour_max_clusters cheapest first legs enter the tour. Small gains are not set aside
-    for later: a small frontier (a dead end's last cells, a corner) costs little while the
-    robot is near it and a long trip back at the end (keeping gains under 0.1 m^2 for last
-    cost about 20 % of the time to 99 % in the maze).
+    Candidates: usable goals (reachable, affordable, not blacklisted; a frontier that
+    survived an arrival at its goal comes with another viewpoint as its goal, see
+    ``viewpoints``); the tour_max_clusters cheapest first legs enter the tour. Small gains
+    are not set aside for later: a small frontier (a dead end's last cells, a corner) costs
+    little while the robot is near it and a long trip back at the end (keeping gains under
+    0.1 m^2 for last cost about 20 % of the time to 99 % in the maze).
     """
     name = "recon"
     Settings = ReconSettings
@@ -94,7 +91,7 @@ class Recon:
 
     def choose(self, frontiers: List[Frontier], ctx: Context, book: GoalBook) -> Optional[Frontier]:
         s = self.settings
-        cands = [f for f in usable(frontiers, ctx, book) if book.successes(f.goal) < s.max_arrivals]
+        cands = usable(frontiers, ctx, book)
         if not cands:
             self.last_goal, self.last_tour = None, []
             return None

@@ -1,0 +1,156 @@
+"""Viewpoints: the cells from which the robot sees a frontier, by line of sight.
+
+A frontier's goal is a viewpoint: a cell the robot can stand on and reach from which some of
+the frontier's cells are visible. ``frontiers.detect`` first snaps the frontier to the
+nearest such cell by path length (``_snap``, which also crosses unknown space); where that
+finds nothing (a frontier seen through a gap narrower than the robot, or in a field of
+clutter), or where its cell was already tried, the goal comes from this module instead.
+
+1. Spent cells. A goal the robot reached has spent its view: a frontier cell that a ray
+   from it reaches and that is still unknown is not revealed by looking from there again
+   (the clutter hid it from the real lidar, or it lies between two beams; if the map has
+   simply not caught up with the arrival yet, the frontier is gone with the next map). The
+   frontier's surviving cells are its cells less the spent ones.
+2. Sight. A ray runs from a surviving cell over known-free cells (occupied and unknown
+   cells stop it) within ``sensor_range_m``: the rays of the information gain
+   (``_native.visible_cells``, ``gain_beams`` Bresenham rays), cast from the frontier
+   outward, all of its cells in one call, so the result is every cell that sees some of
+   them. (The reverse of the lidar's rays: the same lines up to Bresenham's rounding.)
+3. Candidates: cells that see a surviving cell, reachable (finite cost-to-come), outside
+   every tried disc (around reached goals and blacklisted ones: a new viewpoint must look
+   from a place not yet tried), of cost <= ``max_cost`` (if none is, any cost below
+   inscribed: the robot turns in place safely on any passable cell).
+4. Choice: the candidate nearest the surviving cells (a lidar sees best from near), then
+   nearest their centroid (the middle of a straight frontier rather than its end), then the
+   first in raster order. No candidate: the frontier is given up.
+
+Cells and grids follow ``frontiers``: (row, col), row 0 at the smallest y; points are
+metres in the map frame.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+from scipy import ndimage
+
+from .. import _native
+from ..geometry import cells_to_points, points_to_cells
+from ..planning import INSCRIBED
+
+Cell = Tuple[int, int]
+Window = Tuple[slice, slice]
+
+
+@dataclass(frozen=True, eq=False)
+class Tried:
+    """Goals already tried, in map-frame metres (``GoalBook.tried`` builds it)."""
+    reached: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # float (n, 2): x, y
+                                                                          # of reached goals
+    discs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))    # float (m, 3): x, y,
+                                                                          # radius_m; no goal
+                                                                          # inside
+
+    def covers(self, xy: Sequence[float]) -> bool:
+        """Whether ``xy`` lies in a tried disc (within its radius, inclusive)."""
+        d = self.discs
+        return bool(np.any(np.hypot(d[:, 0] - xy[0], d[:, 1] - xy[1]) <= d[:, 2] + 1e-9))
+
+
+class Viewpoints:
+    """The viewpoint search over one map (shared by every frontier of one ``detect`` call).
+
+    occupancy: int8 ROS values; costmap: uint8 inflated costmap; cost_to_come: float32 field
+    from the robot (m); frontier: bool mask of every frontier cell (rays pass through them
+    when they look for spent cells: an unknown cell that borders free space is what a lidar
+    looks into); resolution (m per cell) and origin ((x, y) m of cell (0, 0)'s corner) place
+    the tried goals; range_cells, beams: the sight model (``sensor_range_m / resolution``,
+    ``gain_beams``); free_threshold: occupancy 0..this is free; max_cost: the preferred goal
+    cost.
+    """
+
+    def __init__(self, occupancy: np.ndarray, costmap: np.ndarray, cost_to_come: np.ndarray,
+                 frontier: np.ndarray, resolution: float, origin: Sequence[float], tried: Tried,
+                 range_cells: float, beams: int, free_threshold: int, max_cost: int):
+        self.free = (occupancy >= 0) & (occupancy <= free_threshold)
+        self.frontier, self.costmap, self.cost_to_come = frontier, costmap, cost_to_come
+        self.resolution, self.origin, self.tried = resolution, origin, tried
+        self.range_cells, self.beams, self.max_cost = range_cells, beams, max_cost
+        rows, cols = points_to_cells(tried.reached, resolution, origin)
+        self.reached = np.stack([rows, cols], axis=1).reshape(-1, 2)
+
+    def find(self, cells: np.ndarray) -> Optional[Cell]:
+        """The viewpoint of the frontier made of ``cells`` (int (n, 2)), or None: steps 1-4
+        of the module docstring, on the window of the grid within range of the cells."""
+        window, offset = self._window(cells)
+        mine = np.zeros(_shape(window), dtype=bool)
+        mine[cells[:, 0] - offset[0], cells[:, 1] - offset[1]] = True
+        # 1. surviving cells
+        surviving = mine & ~self._spent(window, offset)
+        if not surviving.any():
+            return None
+        targets = np.argwhere(surviving).astype(np.int32)
+        # 2. every cell that sees one of them
+        blocking = np.ascontiguousarray(~self.free[window], dtype=np.uint8)
+        sees = _native.visible_cells(blocking, targets, self.range_cells, beams=self.beams)
+        # 3. candidates
+        cost = self.costmap[window]
+        ok = (sees & np.isfinite(self.cost_to_come[window]) & (cost < INSCRIBED)
+              & ~self.in_discs[window])
+        if (ok & (cost <= self.max_cost)).any():
+            ok &= cost <= self.max_cost
+        if not ok.any():
+            return None
+        # 4. nearest the surviving cells, then their centroid, then in raster order
+        index = np.flatnonzero(ok)
+        r, c = np.divmod(index, ok.shape[1])
+        to_cells = ndimage.distance_transform_edt(~surviving).ravel()[index]
+        centroid = targets.mean(axis=0)
+        to_centroid = np.hypot(r - centroid[0], c - centroid[1])
+        best = np.lexsort((to_centroid, to_cells))[0]     # stable: ties keep raster order
+        return int(offset[0] + r[best]), int(offset[1] + c[best])
+
+    def _window(self, cells: np.ndarray) -> Tuple[Window, np.ndarray]:
+        """The part of the grid within range of the cells (their bounding box grown by the
+        range): every cell that can see one of them, and every reached goal that can."""
+        k = int(math.ceil(self.range_cells))
+        rows, cols = self.free.shape
+        r0, c0 = np.maximum(cells.min(axis=0) - k, 0)
+        r1, c1 = np.minimum(cells.max(axis=0) + k + 1, (rows, cols))
+        return (slice(int(r0), int(r1)), slice(int(c0), int(c1))), np.array([r0, c0])
+
+    def _spent(self, window: Window, offset: np.ndarray) -> np.ndarray:
+        """Bool (window): the frontier cells that a ray from a reached goal reaches, over
+        known-free and frontier cells."""
+        shape = _shape(window)
+        local = self.reached - offset
+        inside = ((local >= 0) & (local < shape)).all(axis=1)
+        if not inside.any():
+            return np.zeros(shape, dtype=bool)
+        frontier = self.frontier[window]
+        blocking = np.ascontiguousarray(~(self.free[window] | frontier), dtype=np.uint8)
+        seen = _native.visible_cells(blocking, local[inside].astype(np.int32), self.range_cells,
+                                     beams=self.beams)
+        return seen & frontier
+
+    @cached_property
+    def in_discs(self) -> np.ndarray:
+        """Bool (rows, cols): cells whose centre lies in a tried disc (each disc marked over
+        its bounding box only)."""
+        out = np.zeros(self.free.shape, dtype=bool)
+        for x, y, radius in self.tried.discs:
+            k = int(math.ceil(radius / self.resolution)) + 1
+            r, c = points_to_cells(np.array([x, y]), self.resolution, self.origin)
+            rows = slice(max(int(r) - k, 0), max(int(r) + k + 1, 0))
+            cols = slice(max(int(c) - k, 0), max(int(c) + k + 1, 0))
+            box = np.indices(out[rows, cols].shape).transpose(1, 2, 0) + (rows.start, cols.start)
+            xy = cells_to_points(box, self.resolution, self.origin)
+            out[rows, cols] |= np.hypot(xy[..., 0] - x, xy[..., 1] - y) <= radius + 1e-9
+        return out
+
+
+def _shape(window: Window) -> Tuple[int, int]:
+    return window[0].stop - window[0].start, window[1].stop - window[1].start
