@@ -175,6 +175,40 @@ def test_headings_are_the_lattice_vectors():
         _native.lattice_headings(12)
 
 
+# ---------------------------------------------------------------- the footprint test
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_pose_check_is_exact_to_the_obstacle_edges(robot):
+    # A pose is accepted (as a start that is also the goal) exactly when body_clearance, the
+    # plain check above, finds the body margin_m or more from every obstacle square: the margin
+    # is measured to the squares' edges, neither more cautious nor less. Poses within 1e-6 m of
+    # the boundary are left out (rounding).
+    rng = np.random.default_rng(11)
+    settings = LatticeSettings.for_robot(robot)
+    occ = walled(30, 30)
+    occ[rng.random(occ.shape) < 0.03] = 100
+    cx, cy = obstacle_centres(occ)
+    outcomes = set()
+    for _ in range(300):
+        r, c = rng.integers(1, 29, 2)
+        if occ[r, c] != 0:
+            continue
+        k = int(rng.integers(16))
+        pose = centre(r, c, HEADINGS[k][2])
+        clearance = body_clearance(robot, pose, cx, cy)
+        if abs(clearance - settings.margin_m) < 1e-6:
+            continue
+        try:
+            plan_lattice(occ, RES, ORIGIN, robot, pose, pose[:2], settings)
+            accepted = True
+        except PlanningError as exc:
+            assert "footprint" in str(exc)
+            accepted = False
+        assert accepted == (clearance >= settings.margin_m), (r, c, k, clearance)
+        outcomes.add(accepted)
+    assert outcomes == {True, False}
+
+
 # ---------------------------------------------------------------- gaps
 
 @pytest.mark.parametrize("gap_cells, passes", [(8, True), (7, True), (6, False)])
