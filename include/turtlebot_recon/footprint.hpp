@@ -250,4 +250,42 @@ class GridShape {
   int reach_ = 0;
 };
 
+// ------------------------------------------------------------------ any pose
+
+// Whether the body at an arbitrary pose keeps `margin` off every obstacle cell's square: for
+// poses off the lattice (a controller's look-ahead). (x, y): metres from the grid's corner
+// (cell (0, 0) spans [0, res] x [0, res]); is_obstacle(row, col) answers for any cell, on the
+// grid or off it. Tests exactly every cell under the padded body's bounding box.
+template <class IsObstacle>
+bool footprint_clear_at(const Footprint& fp, double margin, double res, double x, double y,
+                        double yaw, IsObstacle&& is_obstacle) {
+  std::vector<Vec2> body;
+  double rho = margin;
+  if (fp.round()) {
+    body = {{x, y}};
+    rho += fp.radius_m;
+  } else {
+    const double c = std::cos(yaw), s = std::sin(yaw);
+    const double x0 = fp.offset_x_m - 0.5 * fp.length_m, x1 = fp.offset_x_m + 0.5 * fp.length_m;
+    for (Vec2 v : box_polygon(x0, x1, -0.5 * fp.width_m, 0.5 * fp.width_m))
+      body.push_back({x + c * v.x - s * v.y, y + s * v.x + c * v.y});
+  }
+  double lo_x = body[0].x, hi_x = lo_x, lo_y = body[0].y, hi_y = lo_y;
+  for (Vec2 v : body) {
+    lo_x = std::min(lo_x, v.x), hi_x = std::max(hi_x, v.x);
+    lo_y = std::min(lo_y, v.y), hi_y = std::max(hi_y, v.y);
+  }
+  const int r0 = static_cast<int>(std::floor((lo_y - rho) / res)), r1 = static_cast<int>(std::floor((hi_y + rho) / res));
+  const int c0 = static_cast<int>(std::floor((lo_x - rho) / res)), c1 = static_cast<int>(std::floor((hi_x + rho) / res));
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      if (!is_obstacle(r, c)) continue;
+      const double sx = c * res, sy = r * res;
+      const std::vector<Vec2> cell{{sx, sy}, {sx + res, sy}, {sx + res, sy + res}, {sx, sy + res}};
+      if (convex_distance(cell, body) < rho) return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace turtlebot_recon::planning

@@ -125,6 +125,12 @@ class LatticeSearch {
 
   const std::vector<LatticeHeading>& headings() const { return headings_; }
 
+  // The graded costs the search reads (header comment), row-major (rows, cols) into `out`.
+  void costmap(std::uint8_t* out) const {
+    for (int r = 0; r < rows_; ++r)
+      std::copy_n(&cost_[padded({r, 0})], cols_, out + static_cast<size_t>(r) * cols_);
+  }
+
   // The cheapest lattice path from (start, start_heading) to the goal cell at goal_heading, or
   // at any heading when goal_heading < 0. Throws std::invalid_argument naming the endpoint when
   // either is off the grid, in an obstacle or unknown space, or when its footprint collides.

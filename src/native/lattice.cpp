@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -74,6 +75,65 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
   return out;
 }
 
+py::array_t<std::uint8_t> py_footprint_costmap(const I8Grid& occupancy, double resolution,
+                                               double footprint_length_m, double footprint_width_m,
+                                               double footprint_offset_x_m, double radius_m,
+                                               double margin_m, double inflation_m,
+                                               double cost_scaling_factor, int occupied_threshold,
+                                               bool unknown_is_obstacle) {
+  const Shape s = grid_shape(occupancy, "footprint_costmap", "occupancy");
+  const tp::Footprint footprint{footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m};
+  tp::LatticeParams params;
+  params.resolution_m = resolution;
+  params.margin_m = margin_m;
+  params.inflation_m = inflation_m;
+  params.cost_scaling_factor = cost_scaling_factor;
+  params.occupied_threshold = occupied_threshold;
+  params.unknown_is_obstacle = unknown_is_obstacle;
+  py::array_t<std::uint8_t> out({s.rows, s.cols});
+  std::uint8_t* dst = out.mutable_data();
+  {
+    py::gil_scoped_release release;
+    tp::LatticeSearch(occupancy.data(), s.rows, s.cols, footprint, params).costmap(dst);
+  }
+  return out;
+}
+
+py::array_t<bool> py_footprint_clear(const I8Grid& occupancy, double resolution,
+                                     std::pair<double, double> origin,
+                                     const py::array_t<double, kInFlags>& poses,
+                                     double footprint_length_m, double footprint_width_m,
+                                     double footprint_offset_x_m, double radius_m, double margin_m,
+                                     int occupied_threshold, bool unknown_is_obstacle) {
+  const Shape s = grid_shape(occupancy, "footprint_clear", "occupancy");
+  if (!(poses.size() == 0 || (poses.ndim() == 2 && poses.shape(1) == 3)))
+    fail("footprint_clear", "poses must be an (n, 3) array of (x, y, yaw)");
+  if (!(std::isfinite(resolution) && resolution > 0))
+    fail("footprint_clear", "resolution must be a positive number of metres");
+  if (!(std::isfinite(margin_m) && margin_m > 0)) fail("footprint_clear", "margin_m must be > 0");
+  const tp::Footprint footprint{footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m};
+  tp::validate(footprint, "footprint_clear");
+  const auto n = static_cast<py::ssize_t>(poses.size() / 3);
+  py::array_t<bool> out(n);
+  bool* dst = out.mutable_data();
+  const double* p = poses.data();
+  const std::int8_t* occ = occupancy.data();
+  {
+    py::gil_scoped_release release;
+    auto is_obstacle = [&](int r, int c) {
+      if (r < 0 || r >= s.rows || c < 0 || c >= s.cols) return unknown_is_obstacle;
+      const std::int8_t v = occ[static_cast<size_t>(r) * s.cols + c];
+      return v >= occupied_threshold || (v < 0 && unknown_is_obstacle);
+    };
+    for (py::ssize_t i = 0; i < n; ++i) {
+      const double x = p[3 * i] - origin.first, y = p[3 * i + 1] - origin.second, yaw = p[3 * i + 2];
+      dst[i] = std::isfinite(x) && std::isfinite(y) && std::isfinite(yaw) &&
+               tp::footprint_clear_at(footprint, margin_m, resolution, x, y, yaw, is_obstacle);
+    }
+  }
+  return out;
+}
+
 py::list py_lattice_headings(int headings) {
   py::list out;
   for (const tp::LatticeHeading& h : tp::lattice_headings(headings))
@@ -103,6 +163,25 @@ void register_lattice(py::module_& m) {
         "(n,) (reached by turning in place), cost, length_m, turned_rad, expanded; n = 0 and cost\n"
         "inf when the goal is unreachable. ValueError naming the start or goal when it is off the\n"
         "grid, in an obstacle, in unknown space or its footprint collides.");
+  m.def("footprint_costmap", &py_footprint_costmap, py::arg("occupancy"), py::arg("resolution"),
+        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
+        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,
+        py::arg("margin_m") = 0.02, py::arg("inflation_m") = 0.35,
+        py::arg("cost_scaling_factor") = 5.0, py::arg("occupied_threshold") = 65,
+        py::arg("unknown_is_obstacle") = false,
+        "The graded costmap plan_lattice reads (uint8, Nav2 convention): 254 obstacle, 255 unknown,\n"
+        "253 where no heading of the footprint fits (the nearest obstacle edge nearer than the body's\n"
+        "inscribed radius about base_footprint + margin_m), 252 exp(-k (d - r_in)) out to\n"
+        "inflation_m beyond, d to the obstacle's edge, 0 further.");
+  m.def("footprint_clear", &py_footprint_clear, py::arg("occupancy"), py::arg("resolution"),
+        py::arg("origin"), py::arg("poses"), py::arg("footprint_length_m") = 0.0,
+        py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,
+        py::arg("radius_m") = 0.105, py::arg("margin_m") = 0.02,
+        py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
+        "bool (n,): whether the footprint at each (x, y, yaw) pose (m, rad; any pose, not only\n"
+        "lattice ones) keeps margin_m off every obstacle cell's square (occupancy >=\n"
+        "occupied_threshold; unknown cells and cells off the grid too if unknown_is_obstacle).\n"
+        "origin: (x, y) of cell (0, 0)'s corner. Non-finite poses are not clear.");
   m.def("lattice_headings", &py_lattice_headings, py::arg("headings") = 16,
         "The lattice headings as (drow, dcol, yaw_rad): heading k moves forward by (drow, dcol).");
 }

@@ -18,7 +18,8 @@ import pytest
 from turtlebot_recon import _native
 from turtlebot_recon.config import ConfigError
 from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
-                                      PlanningError, make_costmap, plan, plan_lattice)
+                                      PlanningError, footprint_clear, footprint_costmap,
+                                      make_costmap, plan, plan_lattice)
 from turtlebot_recon.robot import load_robot
 
 RES = 0.05
@@ -207,6 +208,49 @@ def test_pose_check_is_exact_to_the_obstacle_edges(robot):
         assert accepted == (clearance >= settings.margin_m), (r, c, k, clearance)
         outcomes.add(accepted)
     assert outcomes == {True, False}
+
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_footprint_clear_at_any_pose_is_exact(robot):
+    # footprint_clear (for poses off the lattice: a controller's look-ahead) agrees with
+    # body_clearance at random positions and yaws, boundary cases (1e-6 m) left out; origin
+    # (1, -2) shifts the map, and the poses with it.
+    rng = np.random.default_rng(12)
+    settings = LatticeSettings.for_robot(robot)
+    occ = walled(30, 30)
+    occ[rng.random(occ.shape) < 0.03] = 100
+    cx, cy = obstacle_centres(occ)
+    poses = np.column_stack([rng.uniform(0.0, 1.5, (400, 2)), rng.uniform(-math.pi, math.pi, 400)])
+    clear = footprint_clear(occ, RES, (1.0, -2.0), robot, poses + (1.0, -2.0, 0.0), settings)
+    margins = np.array([body_clearance(robot, pose, cx, cy) for pose in poses])
+    sure = np.abs(margins - settings.margin_m) > 1e-6
+    assert np.array_equal(clear[sure], margins[sure] >= settings.margin_m)
+    assert clear.any() and not clear.all()
+    # off the grid is free unless unknown_is_obstacle; non-finite poses are never clear
+    far = [[-5.0, -5.0, 0.0], [math.nan, 0.5, 0.0]]
+    assert footprint_clear(occ, RES, ORIGIN, robot, far, settings).tolist() == [True, False]
+    strict = LatticeSettings.for_robot(robot, unknown_is_obstacle=True)
+    assert not footprint_clear(occ, RES, ORIGIN, robot, far, strict).any()
+
+
+def test_footprint_costmap_values():
+    # The waffle_pi's box reaches 0.0765 m ahead of base_footprint, its least reach: with the
+    # 0.02 m margin, r_in = 0.0965 m. One obstacle cell at (20, 20); cell (20, 20 + k) lies
+    # k x 0.05 - 0.025 m from its edge: 253 while that is < r_in, then
+    # floor(252 exp(-5 (d - r_in))) up to r_in + 0.35 = 0.4465 m, 0 beyond.
+    occ = np.zeros((41, 41), np.int8)
+    occ[20, 20] = 100
+    occ[0, 0] = -1
+    cost = footprint_costmap(occ, RES, WAFFLE, LatticeSettings.for_robot(WAFFLE))
+    expected = {0: 254,          # the obstacle
+                1: 253, 2: 253,  # 0.025 m, 0.075 m < 0.0965 m: no heading fits
+                3: 218,          # 0.125 m: floor(252 e^-0.1425) = floor(218.53)
+                4: 170,          # 0.175 m: floor(252 e^-0.3925) = floor(170.19)
+                9: 48,           # 0.425 m: floor(252 e^-1.6425) = floor(48.75)
+                10: 0}           # 0.475 m: beyond the band
+    for k, value in expected.items():
+        assert cost[20, 20 + k] == value and cost[20 - k, 20] == value, k
+    assert cost[0, 0] == 255 and cost.dtype == np.uint8 and cost.shape == occ.shape
 
 
 # ---------------------------------------------------------------- gaps

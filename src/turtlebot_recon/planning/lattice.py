@@ -118,3 +118,27 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
     return LatticePath(poses=np.column_stack([xy, out["yaw"]]), cells=out["cells"],
                        headings=out["heading"], turned=out["turned"], cost=float(out["cost"]),
                        length_m=float(out["length_m"]), turned_rad=float(out["turned_rad"]))
+
+
+def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec,
+                      settings: LatticeSettings) -> np.ndarray:
+    """The graded uint8 costmap ``plan_lattice`` reads: 254 obstacle, 255 unknown, 253 where no
+    heading of the footprint fits, graded below that (the costmap convention, for the box)."""
+    settings.validate("LatticeSettings")
+    return _native.footprint_costmap(
+        occupancy, resolution, **footprint_args(robot), margin_m=settings.margin_m,
+        inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
+        occupied_threshold=settings.occupied_threshold,
+        unknown_is_obstacle=settings.unknown_is_obstacle)
+
+
+def footprint_clear(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+                    robot: RobotSpec, poses: np.ndarray, settings: LatticeSettings) -> np.ndarray:
+    """bool (n,): whether the footprint at each (x, y, yaw) pose, lattice pose or not, keeps
+    ``margin_m`` off every obstacle cell's square."""
+    settings.validate("LatticeSettings")
+    return _native.footprint_clear(
+        occupancy, resolution, (float(origin[0]), float(origin[1])),
+        np.asarray(poses, dtype=float).reshape(-1, 3), **footprint_args(robot),
+        margin_m=settings.margin_m, occupied_threshold=settings.occupied_threshold,
+        unknown_is_obstacle=settings.unknown_is_obstacle)
