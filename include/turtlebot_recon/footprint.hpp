@@ -275,10 +275,9 @@ bool footprint_clear_at(const Footprint& fp, double margin, double res, double x
     lo_x = std::min(lo_x, v.x), hi_x = std::max(hi_x, v.x);
     lo_y = std::min(lo_y, v.y), hi_y = std::max(hi_y, v.y);
   }
-  const int r0 = static_cast<int>(std::floor((lo_y - rho) / res)), r1 = static_cast<int>(std::floor((hi_y + rho) / res));
-  const int c0 = static_cast<int>(std::floor((lo_x - rho) / res)), c1 = static_cast<int>(std::floor((hi_x + rho) / res));
-  for (int r = r0; r <= r1; ++r) {
-    for (int c = c0; c <= c1; ++c) {
+  auto cell_of = [res](double v) { return static_cast<int>(std::floor(v / res)); };
+  for (int r = cell_of(lo_y - rho); r <= cell_of(hi_y + rho); ++r) {
+    for (int c = cell_of(lo_x - rho); c <= cell_of(hi_x + rho); ++c) {
       if (!is_obstacle(r, c)) continue;
       const double sx = c * res, sy = r * res;
       const std::vector<Vec2> cell{{sx, sy}, {sx + res, sy}, {sx + res, sy + res}, {sx, sy + res}};

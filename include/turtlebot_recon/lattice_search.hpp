@@ -216,15 +216,16 @@ class LatticeSearch {
     // 3. Graded costs, cached by squared distance (integers) as inflate() does.
     const double h = 0.5 * p_.resolution_m, r_in = pose_[0].r_in_m();
     const double reject = pose_[0].reject_d2();
-    const int band_d2 = static_cast<int>(std::ceil(square((r_in + h + p_.inflation_m) / p_.resolution_m)));
+    const double band_m = r_in + h + p_.inflation_m;
+    const int band_d2 = static_cast<int>(std::ceil(square(band_m / p_.resolution_m)));
     std::vector<std::uint8_t> graded(static_cast<size_t>(band_d2) + 1);
     for (int d2 = 0; d2 <= band_d2; ++d2) {
+      // beyond: how far the obstacle's edge (half a cell nearer than its centre) lies past r_in
       const double beyond = std::sqrt(static_cast<double>(d2)) * p_.resolution_m - h - r_in;
-      graded[d2] = d2 < reject                           ? kInscribedObstacle
-                   : beyond > p_.inflation_m + 1e-9      ? kFreeSpace
-                   : static_cast<std::uint8_t>(std::clamp(
-                         std::floor(kMaxNonObstacle * std::exp(-p_.cost_scaling_factor * std::max(beyond, 0.0))),
-                         0.0, double{kMaxNonObstacle}));
+      const double value = kMaxNonObstacle * std::exp(-p_.cost_scaling_factor * std::max(beyond, 0.0));
+      graded[d2] = d2 < reject                      ? kInscribedObstacle
+                   : beyond > p_.inflation_m + 1e-9 ? kFreeSpace
+                   : static_cast<std::uint8_t>(std::clamp(std::floor(value), 0.0, 252.0));
     }
     cost_.resize(n_cells_);
     for (size_t i = 0; i < n_cells_; ++i) {

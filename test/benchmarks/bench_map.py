@@ -113,7 +113,8 @@ def inflated(occ: np.ndarray) -> np.ndarray:
     return _native.inflate(occ, RES, 0.1, 0.4, 5.0)
 
 
-def building_occupancy(n: int, room: int = 80, wall: int = 2, door: int = 20, seed: int = 3) -> np.ndarray:
+def building_occupancy(n: int, room: int = 80, wall: int = 2, door: int = 20,
+                       seed: int = 3) -> np.ndarray:
     """A building (int8 occupancy): 4 m square rooms (walls 0.1 m) with a 1 m door in two walls
     each and two pieces of furniture per room; a corner-to-corner plan crosses n / room rooms
     each way."""
