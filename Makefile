@@ -34,7 +34,7 @@ help:
 	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
 	@echo "                 JOBS=cores/2 ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
-	@echo "                 DRY_RUN=1 prints the plan only)"
+	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -99,7 +99,7 @@ bench-explore: build
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
 	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
-	  $(if $(DRY_RUN),--dry-run)
+	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP))
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds

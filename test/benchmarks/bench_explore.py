@@ -4,8 +4,8 @@
 Each run is `tools/launch ... explore_sim.launch` (what `make run` runs) headless (rtf:=0, lidar
 only: the camera is off, as the launch file's default) with its own ROS master port
 (ROS_MASTER_URI on 127.0.0.1), ROS_HOME (logs) and output directory
-output/bench/explore/<world>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
-launch.log, run.json). Up to --jobs runs at a time (default: half the cores). A run is "ok" when
+output/bench/<name>/<world>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
+launch.log, run.json; --name, default explore: two sweeps in one tree at once need two names). Up to --jobs runs at a time (default: half the cores). A run is "ok" when
 the evaluator ended it and wrote report.json; one that exceeds its wall-clock limit is stopped
 (SIGINT, then SIGKILL) and recorded as "timeout"; one where a node died or no report appeared, as
 "failed" with tools/launch's one-line reason. Neither is hidden: the aggregation
@@ -26,9 +26,9 @@ their own. The robot is the waffle_pi (WORLD_ROBOTS: the burger in the maze and 
 worlds) unless --robot or --robots world=robot,... says otherwise. The wall-clock limit of a
 run is --startup-s + budget / --min-rtf.
 
-Output: the tables, output/bench/explore.json (benchmark.figures + machine + commit, and
+Output: the tables, output/bench/<name>.json (benchmark.figures + machine + commit, and
 run_commits: the commits the runs ran at, from their run.json, "+dirty" where the sources had
-uncommitted changes; per world when they differ), and under output/bench/explore/:
+uncommitted changes; per world when they differ), and under output/bench/<name>/:
 coverage_<world>.png and time_to_99.png.
 """
 import argparse
@@ -73,7 +73,7 @@ WORLD_BUDGETS = {"maze": 1800.0}
 QUICK_STRATEGIES = (bm.DEFAULT_STRATEGY, bm.REFERENCE)
 QUICK_WORLDS = ("house", "arena") + HELD_OUT
 QUICK_SEEDS = 1
-OUT = TOP / "output" / "bench" / "explore"
+BENCH_DIR = TOP / "output" / "bench"       # a sweep named N: runs and plots in N/, figures in N.json
 SOURCE_PATHS = ("src", "scripts", "launch", "config", "include", "worlds", "CMakeLists.txt", "package.xml")
 SHUTDOWN_REASON = "shut down before the end"   # the evaluator's finished_reason when stopped from outside
 LIVE: dict = {}             # pid -> Popen of the launches running now (stopped on Ctrl-C)
@@ -174,7 +174,7 @@ def load_run(strategy: str, world: str, seed: int, run_dir: Path) -> bm.Run:
 
 def execute(strategy: str, world: str, seed: int, budget: float, args, lock: threading.Lock) -> dict:
     """One launch, waited for (or stopped at its wall-clock limit); returns run.json's content."""
-    run_dir = OUT / world / strategy / f"seed{seed}"
+    run_dir = args.out / world / strategy / f"seed{seed}"
     shutil.rmtree(run_dir, ignore_errors=True)
     ros_home = run_dir / "ros_home"
     ros_home.mkdir(parents=True)
@@ -241,7 +241,7 @@ def stop(proc: subprocess.Popen) -> int:
 
 def reusable(strategy: str, world: str, seed: int, budget: float, args) -> bool:
     """--resume: a run that finished ok with the same robot and budget."""
-    run_dir = OUT / world / strategy / f"seed{seed}"
+    run_dir = args.out / world / strategy / f"seed{seed}"
     if not (run_dir / "report.json").exists() or not (run_dir / "run.json").exists():
         return False
     run = load_run(strategy, world, seed, run_dir)
@@ -270,10 +270,10 @@ def sweep(plan: list, budgets: dict, args) -> list:
                 meta = fut.result()
             except Exception as exc:           # a bug here must not lose the rest of the sweep
                 meta = {"status": "failed", "reason": f"runner error: {exc!r}", "wall_s": float("nan")}
-                run_dir = OUT / w / s / f"seed{n}"
+                run_dir = args.out / w / s / f"seed{n}"
                 run_dir.mkdir(parents=True, exist_ok=True)
                 (run_dir / "run.json").write_text(json.dumps(meta, default=str) + "\n")
-            run = load_run(s, w, n, OUT / w / s / f"seed{n}")
+            run = load_run(s, w, n, args.out / w / s / f"seed{n}")
             cov = run.report.get("coverage_final")
             print(f"[bench-explore] {done}/{len(todo)} {w}/{s}/seed{n}: {meta['status']}"
                   f"{' (' + meta['reason'] + ')' if meta['reason'] else ''}, coverage "
@@ -287,7 +287,7 @@ def sweep(plan: list, budgets: dict, args) -> list:
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
-    return [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
+    return [load_run(s, w, n, args.out / w / s / f"seed{n}") for s, w, n in plan]
 
 
 def main(argv=None):
@@ -307,12 +307,18 @@ def main(argv=None):
     p.add_argument("--budgets", default="", help="per world, e.g. house=600,office=3000 (wins over --budget)")
     p.add_argument("--min-rtf", type=float, default=2.0, help="wall limit = startup + budget / this")
     p.add_argument("--startup-s", type=float, default=120.0, help="wall seconds allowed for start-up and saving")
+    p.add_argument("--name", default="explore",
+                   help="the sweep's name: runs and plots in output/bench/NAME/, figures in output/bench/NAME.json "
+                        "(default explore; give another for a sweep beside someone else's in the same tree)")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
     p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
     p.add_argument("--report", action="store_true",
                    help="run nothing: the table, plots and explore.json from the plan's runs already on disk "
                         "(a sweep made in several sittings; budgets and jobs as each run recorded them)")
     args = p.parse_args(argv)
+    if not args.name or "/" in args.name:
+        p.error("--name must be a plain file name")
+    args.out = BENCH_DIR / args.name
     if args.strategies is None:
         args.strategies = ",".join(QUICK_STRATEGIES if args.quick else bm.STRATEGIES + (bm.REFERENCE,))
     if args.worlds is None:
@@ -341,20 +347,20 @@ def main(argv=None):
         for w in worlds:
             print(f"{w}: {args.world_args[w]}, {args.robot_of[w]}, budget {budgets[w]:g} s sim, wall limit "
                   f"{args.startup_s + budgets[w] / args.min_rtf:.0f} s per run, {len(strategies) * args.seeds} runs")
-        print(f"{len(plan)} runs, {args.jobs} at a time")
+        print(f"{len(plan)} runs, {args.jobs} at a time, into {args.out}/")
         return
     jobs = args.jobs
     if args.report:
-        plan = [(s, w, n) for s, w, n in plan if (OUT / w / s / f"seed{n}" / "run.json").exists()]
-        metas = [json.loads((OUT / w / s / f"seed{n}" / "run.json").read_text()) for s, w, n in plan]
+        plan = [(s, w, n) for s, w, n in plan if (args.out / w / s / f"seed{n}" / "run.json").exists()]
+        metas = [json.loads((args.out / w / s / f"seed{n}" / "run.json").read_text()) for s, w, n in plan]
         budgets.update({w: m["budget_s"] for (_, w, _), m in zip(plan, metas)})
         jobs = sorted({m.get("jobs") for m in metas}, key=str)
         jobs = jobs[0] if len(jobs) == 1 else jobs
-        runs = [load_run(s, w, n, OUT / w / s / f"seed{n}") for s, w, n in plan]
+        runs = [load_run(s, w, n, args.out / w / s / f"seed{n}") for s, w, n in plan]
     else:
         runs = sweep(plan, budgets, args) if plan else []
         metas = [json.loads(path.read_text()) if path.exists() else {} for path in
-                 (OUT / w / s / f"seed{n}" / "run.json" for s, w, n in plan)]
+                 (args.out / w / s / f"seed{n}" / "run.json" for s, w, n in plan)]
 
     groups = bm.aggregate(runs)
     print("\nexploration benchmark: medians over seeds; 'never' = not reached by most seeds; "
@@ -367,10 +373,10 @@ def main(argv=None):
     for r in runs:
         if not r.ok:
             print(f"  FAILED {r.world}/{r.strategy}/seed{r.seed}: {r.status} {r.reason}")
-    OUT.mkdir(parents=True, exist_ok=True)
+    args.out.mkdir(parents=True, exist_ok=True)
     for w in worlds:
-        bm.plot_coverage_by_world(OUT / f"coverage_{w}.png", w, runs, strategies)
-    bm.plot_time_bars(OUT / "time_to_99.png", groups, worlds, strategies)
+        bm.plot_coverage_by_world(args.out / f"coverage_{w}.png", w, runs, strategies)
+    bm.plot_time_bars(args.out / "time_to_99.png", groups, worlds, strategies)
     figs = bm.figures(groups, runs, held_out=HELD_OUT)
     figs.update({"seeds": args.seeds, "jobs": jobs, "quick": args.quick})
     # Which commit each figure comes from: the runs' own (run.json; "+dirty": uncommitted
@@ -382,8 +388,8 @@ def main(argv=None):
         figs.update({f"run_commits_{w}": cs for w, cs in run_commits.items()})
     figs.update({f"budget_s_{w}": b for w, b in budgets.items()})
     figs.update({f"robot_{w}": r for w, r in args.robot_of.items()})
-    out = write("explore", figs)
-    print(f"plots: {OUT}/coverage_<world>.png, {OUT}/time_to_99.png")
+    out = write(args.name, figs)
+    print(f"plots: {args.out}/coverage_<world>.png, {args.out}/time_to_99.png")
     bad = [r for r in runs if not r.ok]
     if bad:
         print(f"[bench-explore] {len(bad)} of {len(runs)} runs did not finish (FAILED lines above); figures in {out}")
