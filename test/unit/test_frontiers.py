@@ -210,31 +210,36 @@ def test_path_cost_is_the_dijkstra_field_and_gain_the_ray_count(burger_costmap_s
     assert [g.path_cost_m for g in again] == [2 * f.path_cost_m for f in frontiers]
 
 
-def test_frontier_behind_a_gap_narrower_than_the_robot_is_seen_through_it(burger_costmap_settings):
+def test_frontier_behind_a_gap_narrower_than_the_robot_is_seen_through_it_last(
+        burger_costmap_settings):
     # Door of 2 cells (0.1 m) for a robot 0.21 m wide: every door cell is 1 cell from a door
     # post, inside the 3.5-cell inscribed radius, so room B is cut off.
     occ = two_rooms(door_rows=(10, 11))
     costmap = make_costmap(occ, RES, burger_costmap_settings)
     assert (costmap[10:12, 28:31] >= 253).all()
     a, b = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), FrontierSettings(max_cost=252))
-    assert a.reachable and math.isfinite(a.path_cost_m)
     # Measured along cells the robot could stand on, room A is only reached through the
-    # door: B's snap finds nothing. But room A sees B's gap through the door: the ray
+    # door: B's snap finds nothing, and while A's frontier can be driven to, B has no goal
+    # (reported, unreachable, at the nearest cell it could stand on beside its
+    # representative (20, 44): (19, 44), 5.1 cells = 0.255 m from the wall cell (20, 39)).
+    assert a.reachable and math.isfinite(a.path_cost_m)
+    assert not b.reachable and b.path_cost_m == math.inf and b.goal_cell == (19, 44)
+    # Room A mapped (its gap turns out to be wall): B is looked at through the door. The ray
     # (20, 40) -> (8, 24) (3 rows per 4 cols) crosses the wall's cols 28..30 on rows 11 and
-    # 10, the door. B's goal is that viewpoint (the nearer cells of room A see no gap cell
-    # through the door), reached the long way round the door post's band: 0.78 m.
+    # 10, the door; B's goal is that viewpoint (the nearer cells of room A see no gap cell
+    # through it), reached the long way round the door post's band: 0.78 m.
+    occ[20, 10:20] = WALL
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    (b,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 14), FrontierSettings(max_cost=252))
     field = dijkstra(costmap, (10, 14), resolution=RES)
     assert b.goal_cell == (8, 24) and b.reachable
     assert b.path_cost_m == float(field[8, 24]) == pytest.approx(0.785, abs=1e-3)
     assert costmap[b.goal_cell] <= 252
-    # Close the door: no cell the robot reaches sees B's gap, and B is given up (still
-    # reported, unreachable, at the nearest cell it could stand on beside its representative
-    # (20, 44): (19, 44), 5.1 cells = 0.255 m from the wall cell (20, 39)).
+    # Close the door: no cell the robot reaches sees B's gap, and B is given up.
     occ[10:12, 28:31] = WALL
-    _, b_shut = detect(occ, RES, (0.0, 0.0), make_costmap(occ, RES, burger_costmap_settings),
-                       (10, 14), FrontierSettings(max_cost=252))
-    assert not b_shut.reachable and b_shut.path_cost_m == math.inf
-    assert b_shut.goal_cell == (19, 44)
+    (b,) = detect(occ, RES, (0.0, 0.0), make_costmap(occ, RES, burger_costmap_settings),
+                  (10, 14), FrontierSettings(max_cost=252))
+    assert not b.reachable and b.path_cost_m == math.inf and b.goal_cell == (19, 44)
     # Widen the door to 12 cells (0.6 m): B's snap reaches it, on its own side.
     wide = two_rooms(door_rows=(6, 17))
     _, b_wide = detect(wide, RES, (0.0, 0.0), make_costmap(wide, RES, burger_costmap_settings),

@@ -3,8 +3,9 @@
 A frontier's goal is a viewpoint: a cell the robot can stand on and reach from which some of
 the frontier's cells are visible. ``frontiers.detect`` first snaps the frontier to the
 nearest such cell by path length (``_snap``, which also crosses unknown space); where that
-finds nothing (a frontier seen through a gap narrower than the robot, or in a field of
-clutter), or where its cell was already tried, the goal comes from this module instead.
+cell was already tried, and (once no frontier has a snapped goal left) where the snap finds
+nothing (a frontier seen through a gap narrower than the robot, or in a field of clutter),
+the goal comes from this module instead.
 
 1. Spent cells. A goal the robot reached has spent its view: a frontier cell that a ray
    from it reaches and that is still unknown is not revealed by looking from there again
