@@ -252,24 +252,29 @@ class GridShape {
 
 // ------------------------------------------------------------------ any pose
 
-// Whether the body at an arbitrary pose keeps `margin` off every obstacle cell's square: for
-// poses off the lattice (a controller's look-ahead). (x, y): metres from the grid's corner
-// (cell (0, 0) spans [0, res] x [0, res]); is_obstacle(row, col) answers for any cell, on the
-// grid or off it. Tests exactly every cell under the padded body's bounding box.
-template <class IsObstacle>
-bool footprint_clear_at(const Footprint& fp, double margin, double res, double x, double y,
-                        double yaw, IsObstacle&& is_obstacle) {
+// The body at an arbitrary pose in grid coordinates: the polygon (1 vertex for a round robot)
+// and its padding (a round robot: its radius, plus `pad`; a box: `pad`).
+inline std::pair<std::vector<Vec2>, double> body_at(const Footprint& fp, double pad, double x,
+                                                     double y, double yaw) {
+  if (fp.round()) return {{{x, y}}, fp.radius_m + pad};
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double x0 = fp.offset_x_m - 0.5 * fp.length_m, x1 = fp.offset_x_m + 0.5 * fp.length_m;
   std::vector<Vec2> body;
-  double rho = margin;
-  if (fp.round()) {
-    body = {{x, y}};
-    rho += fp.radius_m;
-  } else {
-    const double c = std::cos(yaw), s = std::sin(yaw);
-    const double x0 = fp.offset_x_m - 0.5 * fp.length_m, x1 = fp.offset_x_m + 0.5 * fp.length_m;
-    for (Vec2 v : box_polygon(x0, x1, -0.5 * fp.width_m, 0.5 * fp.width_m))
-      body.push_back({x + c * v.x - s * v.y, y + s * v.x + c * v.y});
-  }
+  for (Vec2 v : box_polygon(x0, x1, -0.5 * fp.width_m, 0.5 * fp.width_m))
+    body.push_back({x + c * v.x - s * v.y, y + s * v.x + c * v.y});
+  return {body, pad};
+}
+
+// Calls visit(row, col, distance) for every obstacle cell whose square comes nearer than
+// `reach` to the body at (x, y, yaw) (distance: body to square, 0 when they meet); stops early
+// when visit returns false. (x, y): metres from the grid's corner (cell (0, 0) spans [0, res] x
+// [0, res]); is_obstacle(row, col) answers for any cell, on the grid or off it. Tests exactly
+// every cell under the body's bounding box grown by `reach`.
+template <class IsObstacle, class Visit>
+void for_each_obstacle_near(const Footprint& fp, double reach, double res, double x, double y,
+                            double yaw, IsObstacle&& is_obstacle, Visit&& visit) {
+  const auto [body, rho] = body_at(fp, reach, x, y, yaw);
+  const double inflate = rho - reach;  // a round body's radius: its distance is to the disc
   double lo_x = body[0].x, hi_x = lo_x, lo_y = body[0].y, hi_y = lo_y;
   for (Vec2 v : body) {
     lo_x = std::min(lo_x, v.x), hi_x = std::max(hi_x, v.x);
@@ -281,10 +286,35 @@ bool footprint_clear_at(const Footprint& fp, double margin, double res, double x
       if (!is_obstacle(r, c)) continue;
       const double sx = c * res, sy = r * res;
       const std::vector<Vec2> cell{{sx, sy}, {sx + res, sy}, {sx + res, sy + res}, {sx, sy + res}};
-      if (convex_distance(cell, body) < rho) return false;
+      const double d = convex_distance(cell, body);
+      if (d < rho && !visit(r, c, std::max(d - inflate, 0.0))) return;
     }
   }
-  return true;
+}
+
+// Whether the body at an arbitrary pose keeps `margin` off every obstacle cell's square: for
+// poses off the lattice (a controller's look-ahead); arguments as for_each_obstacle_near.
+template <class IsObstacle>
+bool footprint_clear_at(const Footprint& fp, double margin, double res, double x, double y,
+                        double yaw, IsObstacle&& is_obstacle) {
+  bool clear = true;
+  for_each_obstacle_near(fp, margin, res, x, y, yaw, is_obstacle, [&](int, int, double) {
+    return clear = false;
+  });
+  return clear;
+}
+
+// The distance (m) from the body at an arbitrary pose to the nearest obstacle cell's square, 0
+// when they meet, `max_m` when none is nearer than that; arguments as for_each_obstacle_near.
+template <class IsObstacle>
+double footprint_clearance_at(const Footprint& fp, double max_m, double res, double x, double y,
+                              double yaw, IsObstacle&& is_obstacle) {
+  double least = max_m;
+  for_each_obstacle_near(fp, max_m, res, x, y, yaw, is_obstacle, [&](int, int, double d) {
+    least = std::min(least, d);
+    return least > 0.0;
+  });
+  return least;
 }
 
 }  // namespace turtlebot_recon::planning

@@ -99,23 +99,26 @@ py::array_t<std::uint8_t> py_footprint_costmap(const I8Grid& occupancy, double r
   return out;
 }
 
-py::array_t<bool> py_footprint_clear(const I8Grid& occupancy, double resolution,
-                                     std::pair<double, double> origin,
-                                     const py::array_t<double, kInFlags>& poses,
-                                     double footprint_length_m, double footprint_width_m,
-                                     double footprint_offset_x_m, double radius_m, double margin_m,
-                                     int occupied_threshold, bool unknown_is_obstacle) {
-  const Shape s = grid_shape(occupancy, "footprint_clear", "occupancy");
+// footprint_clear (margin_m) and footprint_clearance (max_m): one answer per (x, y, yaw) pose.
+template <class Out, class PerPose>
+py::array_t<Out> per_pose(const char* fn, const I8Grid& occupancy, double resolution,
+                          std::pair<double, double> origin,
+                          const py::array_t<double, kInFlags>& poses, double footprint_length_m,
+                          double footprint_width_m, double footprint_offset_x_m, double radius_m,
+                          double distance_m, int occupied_threshold, bool unknown_is_obstacle,
+                          PerPose&& answer) {
+  const Shape s = grid_shape(occupancy, fn, "occupancy");
   if (!(poses.size() == 0 || (poses.ndim() == 2 && poses.shape(1) == 3)))
-    fail("footprint_clear", "poses must be an (n, 3) array of (x, y, yaw)");
+    fail(fn, "poses must be an (n, 3) array of (x, y, yaw)");
   if (!(std::isfinite(resolution) && resolution > 0))
-    fail("footprint_clear", "resolution must be a positive number of metres");
-  if (!(std::isfinite(margin_m) && margin_m > 0)) fail("footprint_clear", "margin_m must be > 0");
+    fail(fn, "resolution must be a positive number of metres");
+  if (!(std::isfinite(distance_m) && distance_m > 0))
+    fail(fn, "margin_m / max_m must be > 0");
   const tp::Footprint footprint{footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m};
-  tp::validate(footprint, "footprint_clear");
+  tp::validate(footprint, fn);
   const auto n = static_cast<py::ssize_t>(poses.size() / 3);
-  py::array_t<bool> out(n);
-  bool* dst = out.mutable_data();
+  py::array_t<Out> out(n);
+  Out* dst = out.mutable_data();
   const double* p = poses.data();
   const std::int8_t* occ = occupancy.data();
   {
@@ -127,11 +130,43 @@ py::array_t<bool> py_footprint_clear(const I8Grid& occupancy, double resolution,
     };
     for (py::ssize_t i = 0; i < n; ++i) {
       const double x = p[3 * i] - origin.first, y = p[3 * i + 1] - origin.second, yaw = p[3 * i + 2];
-      dst[i] = std::isfinite(x) && std::isfinite(y) && std::isfinite(yaw) &&
-               tp::footprint_clear_at(footprint, margin_m, resolution, x, y, yaw, is_obstacle);
+      const bool finite = std::isfinite(x) && std::isfinite(y) && std::isfinite(yaw);
+      dst[i] = answer(footprint, finite, x, y, yaw, is_obstacle);
     }
   }
   return out;
+}
+
+py::array_t<bool> py_footprint_clear(const I8Grid& occupancy, double resolution,
+                                     std::pair<double, double> origin,
+                                     const py::array_t<double, kInFlags>& poses,
+                                     double footprint_length_m, double footprint_width_m,
+                                     double footprint_offset_x_m, double radius_m, double margin_m,
+                                     int occupied_threshold, bool unknown_is_obstacle) {
+  return per_pose<bool>(
+      "footprint_clear", occupancy, resolution, origin, poses, footprint_length_m,
+      footprint_width_m, footprint_offset_x_m, radius_m, margin_m, occupied_threshold,
+      unknown_is_obstacle,
+      [&](const tp::Footprint& fp, bool finite, double x, double y, double yaw, auto& is_obstacle) {
+        return finite && tp::footprint_clear_at(fp, margin_m, resolution, x, y, yaw, is_obstacle);
+      });
+}
+
+py::array_t<double> py_footprint_clearance(const I8Grid& occupancy, double resolution,
+                                           std::pair<double, double> origin,
+                                           const py::array_t<double, kInFlags>& poses,
+                                           double footprint_length_m, double footprint_width_m,
+                                           double footprint_offset_x_m, double radius_m,
+                                           double max_m, int occupied_threshold,
+                                           bool unknown_is_obstacle) {
+  return per_pose<double>(
+      "footprint_clearance", occupancy, resolution, origin, poses, footprint_length_m,
+      footprint_width_m, footprint_offset_x_m, radius_m, max_m, occupied_threshold,
+      unknown_is_obstacle,
+      [&](const tp::Footprint& fp, bool finite, double x, double y, double yaw, auto& is_obstacle) {
+        return finite ? tp::footprint_clearance_at(fp, max_m, resolution, x, y, yaw, is_obstacle)
+                      : 0.0;
+      });
 }
 
 py::list py_lattice_headings(int headings) {
@@ -182,6 +217,14 @@ void register_lattice(py::module_& m) {
         "lattice ones) keeps margin_m off every obstacle cell's square (occupancy >=\n"
         "occupied_threshold; unknown cells and cells off the grid too if unknown_is_obstacle).\n"
         "origin: (x, y) of cell (0, 0)'s corner. Non-finite poses are not clear.");
+  m.def("footprint_clearance", &py_footprint_clearance, py::arg("occupancy"),
+        py::arg("resolution"), py::arg("origin"), py::arg("poses"),
+        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
+        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105, py::arg("max_m") = 0.1,
+        py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
+        "float (n,): the distance (m) from the footprint at each (x, y, yaw) pose to the nearest\n"
+        "obstacle cell's square (as footprint_clear counts them), 0 when they meet, max_m when\n"
+        "none is nearer. Non-finite poses: 0.");
   m.def("lattice_headings", &py_lattice_headings, py::arg("headings") = 16,
         "The lattice headings as (drow, dcol, yaw_rad): heading k moves forward by (drow, dcol).");
 }

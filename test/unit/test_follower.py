@@ -40,12 +40,23 @@ def with_band(costmap, x_from, x_to, value):
     return out
 
 
+def occupancy_of(costmap):
+    """The occupancy a costmap stands for: lethal cells are obstacles (100), unknown ones -1."""
+    costmap = np.asarray(costmap)
+    occ = np.zeros(costmap.shape, np.int8)
+    occ[costmap == LETHAL] = 100
+    occ[costmap == UNKNOWN] = -1
+    return occ
+
+
 def make_input(pose, path, velocity=(0.0, 0.0), goal_yaw=None, costmap=None, now_s=0.0,
-               resolution=RES, origin=ORIGIN):
+               resolution=RES, origin=ORIGIN, occupancy=None):
+    """A ControlInput; the occupancy defaults to the costmap's obstacles and unknown cells."""
+    costmap = empty_costmap() if costmap is None else costmap
     return ControlInput(now_s=now_s, pose=tuple(pose), velocity=tuple(velocity),
                         path=np.asarray(path, dtype=float), goal_yaw=goal_yaw,
-                        costmap=empty_costmap() if costmap is None else costmap,
-                        resolution=resolution, origin=origin)
+                        occupancy=occupancy_of(costmap) if occupancy is None else occupancy,
+                        costmap=costmap, resolution=resolution, origin=origin)
 
 
 def follower(robot=WAFFLE, **settings):
@@ -65,8 +76,8 @@ def drive(ctrl, path, costmap, pose, seconds, robot=WAFFLE, goal_yaw=None, origi
         t = k * dt
         if on_step is not None:
             costmap = on_step(t, costmap)
-        out = ctrl.compute(ControlInput(t, (x, y, yaw), (v, w), np.asarray(path, float), goal_yaw,
-                                        costmap, RES, origin))
+        out = ctrl.compute(make_input((x, y, yaw), path, (v, w), goal_yaw, costmap, t,
+                                      origin=origin))
         trace.append((t, (x, y, yaw), out))
         if out.status in ("arrived", "blocked"):
             break
@@ -261,42 +272,59 @@ def test_progress_never_goes_backwards_nor_jumps_a_u_turn():
 # ---------------------------------------------------------------- look-ahead collision check
 
 def test_stops_blocked_before_a_wall_across_the_path():
-    # inscribed band from x = 0.10: the free arc from x = 0.01 is 0.09 m (0.075 m at half-cell
-    # samples) < 0.1 m stop distance -> blocked, zero command
+    # The body, not the centre, is checked (box changes these numbers): the waffle_pi's box
+    # reaches 0.0765 m ahead. A wall from x = 0.30; the robot at x = 0.15: a look-ahead pose s
+    # along collides when 0.30 - (0.15 + s + 0.0765) < 0.01, i.e. s > 0.0635: the first such
+    # pose (every 0.005 m) is s = 0.065, so 0.06 m is free < 0.1 m stop distance -> blocked.
+    # The graded band before the wall (cost 253) is no collision: only the occupancy is.
     costmap = with_band(empty_costmap(), 0.10, 0.30, INSCRIBED)
     costmap = with_band(costmap, 0.30, 0.40, LETHAL)
-    out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
+    out = follower().compute(make_input((0.15, 0.0, 0.0), [(0.15, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
     assert (out.status, out.linear_mps, out.angular_radps) == ("blocked", 0.0, 0.0)
+    assert "obstacle" in out.detail
+    out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
+                                        velocity=(V_MAX, 0), costmap=costmap))
+    assert out.status == "following"          # 0.2035 m free: slowed, not stopped
 
 
 def test_slows_when_the_arc_clips_an_obstacle_late():
-    # band from x = 0.30, robot at x = 0.01 going 0.26 m/s: the 1.5 s arc (0.39 m) reaches
-    # x = 0.40; 0.29 m of it is free, so v = 0.29 / 1.5 = 0.193 (to within one 0.025 m sample)
-    costmap = with_band(empty_costmap(), 0.30, 0.60, INSCRIBED)
+    # A wall from x = 0.40, the robot at x = 0.01 going 0.26 m/s: its 1.5 s look-ahead (0.39 m)
+    # collides from s > 0.40 - 0.01 - 0.0765 - 0.01 = 0.3035, first pose s = 0.305: 0.30 m
+    # free, v = 0.30 / 1.5 = 0.2 m/s. (box changes these numbers: the centre met the old
+    # inscribed band 0.1 m sooner.)
+    costmap = with_band(empty_costmap(), 0.40, 0.60, LETHAL)
     out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
     assert out.status == "following"
-    assert out.linear_mps == pytest.approx(0.29 / 1.5, abs=0.025 / 1.5)
-    assert out.linear_mps < V_MAX
-    # the same band beyond the arc (x >= 0.45) does not slow the robot
-    costmap = with_band(empty_costmap(), 0.45, 0.60, INSCRIBED)
+    assert out.linear_mps == pytest.approx(0.30 / 1.5)
+    # a wall from x = 0.50 lies beyond the arc (collides from s > 0.4035 > 0.39): full speed
+    costmap = with_band(empty_costmap(), 0.50, 0.60, LETHAL)
     out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
     assert out.linear_mps == pytest.approx(V_MAX)
 
 
 def test_the_arc_follows_the_curvature():
-    # a left turn, kappa = 4 /m (radius 0.25 m) at 0.26 m/s: the 0.39 m arc ends near
-    # (0.25 sin 1.56, 0.25 (1 - cos 1.56)) = (0.25, 0.247). A band straight ahead at x >= 0.30
-    # is not on it; a lethal block at the arc's end is.
-    path = [(0, 0), (0.2, 0), (0.2, 1.0)]
-    ahead = with_band(empty_costmap(), 0.30, 0.60, LETHAL)
-    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=ahead))
+    # Path (0,0) -> (0.4,0.2) -> (0.4,2): standing still, L_d = 0.3 m puts the carrot on the
+    # first leg at (0.268, 0.134): alpha = 0.4636, kappa = 2 sin(alpha) / 0.3 = 2.98 /m (radius
+    # 0.335 m); at 0.26 m/s the 0.39 m look-ahead turns 1.16 rad. A block at x in [0.40, 0.55),
+    # y in [-0.25, -0.05) (no nearer than 0.403 m to the start: the start is no tight corner)
+    # stands in the way of driving straight (the box's front reaches it after 0.40 - 0.0765 -
+    # 0.01 = 0.3135 m < 0.39 m) but not of the arc, whose box passes >= 0.08 m above it (box
+    # changes this test: the centre passed a band at x >= 0.3). A block on the arc is hit.
+    path = [(0, 0), (0.4, 0.2), (0.4, 2.0)]
+    costmap = empty_costmap()
+    costmap[15:19, 28:31] = LETHAL
+    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=costmap))
     assert out.status == "following" and out.linear_mps == pytest.approx(V_MAX)
-    blocked = empty_costmap()
-    blocked[24:26, 23:27] = LETHAL                      # y in [0.20, 0.30), x in [0.15, 0.35)
-    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=blocked))
+    assert out.angular_radps == pytest.approx(V_MAX * 2 * math.sin(math.atan2(1, 2)) / 0.3)
+    out = follower().compute(make_input((0.0, 0.0, 0.0), [(0, 0), (2.0, 0)], costmap=costmap,
+                                        velocity=(V_MAX, 0)))
+    assert out.status == "following" and out.linear_mps < V_MAX
+    on_arc = empty_costmap()
+    on_arc[24:26, 28:30] = LETHAL                      # y in [0.20, 0.30), x in [0.40, 0.50)
+    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=on_arc))
     assert out.status == "following" and out.linear_mps < V_MAX
 
 
@@ -324,33 +352,95 @@ def test_unknown_space_collides_only_if_configured():
     assert follower().compute(inp).status == "blocked"
 
 
-def test_at_the_band_edge_facing_into_it_turns_toward_the_plan_first():
-    # inscribed cost from y = 0.05 up; the plan runs along its edge at y = 0.045 (a corner taken
-    # tight), the robot on it heads 0.6 rad into the band: every arc, down to a one-cell
-    # carrot, enters the band at its first sample. It turns in place (right) toward the plan
-    # instead of reporting "blocked"; once facing along it, it follows.
+def test_facing_a_wall_turns_toward_the_plan_first():
+    # A wall from y = 0.20; the plan runs along y = 0, the robot on it heads 0.6 rad toward the
+    # wall. Its front-left corner stands 0.0765 sin 0.6 + 0.153 cos 0.6 = 0.169 m up, 0.031 m
+    # from the wall, and rises sin 0.6 = 0.56 m per metre driven: every arc toward the plan
+    # comes within 0.01 m in under 0.1 m, down to a one-cell carrot. Turning right in place
+    # only lowers that corner (the sweep is clear, though the 0.257 m disc does not fit): it
+    # turns toward the plan instead of reporting "blocked"; once facing along it, it follows.
     costmap = empty_costmap()
-    costmap[21:, :] = INSCRIBED                     # rows from y = -1 + 21 * 0.05 = 0.05
-    path = [(0.0, 0.045), (2.0, 0.045)]
-    out = follower().compute(make_input((0.0, 0.045, 0.6), path, costmap=costmap))
+    costmap[24:, :] = LETHAL                        # rows from y = -1 + 24 * 0.05 = 0.20
+    path = [(0.0, 0.0), (2.0, 0.0)]
+    out = follower().compute(make_input((0.0, 0.0, 0.6), path, costmap=costmap))
     assert out.status == "rotating" and out.linear_mps == 0.0 and out.angular_radps < 0.0
-    out = follower().compute(make_input((0.0, 0.045, 0.0), path, costmap=costmap))
+    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=costmap))
     assert out.status == "following" and out.linear_mps > 0.0
 
 
-def test_on_lethal_blocked_in_the_inscribed_band_may_leave():
-    costmap = with_band(empty_costmap(), -0.10, 0.10, INSCRIBED)      # robot at x = 0.01 inside
-    costmap = with_band(costmap, -0.50, -0.10, LETHAL)
+def test_on_an_obstacle_blocked_near_one_may_leave():
+    costmap = with_band(empty_costmap(), -0.50, -0.20, LETHAL)
     out = follower().compute(make_input((-0.3, 0.0, 0.0), [(-0.3, 0), (2.0, 0)], costmap=costmap))
     assert out.status == "blocked"                                      # standing on lethal
-    # leaving the band (+x): allowed, full speed (cost 253 under the robot: x 0.5 -> 0.13 m/s)
-    out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.0, 0)], costmap=costmap))
-    assert out.status == "following" and out.linear_mps == pytest.approx(0.5 * V_MAX)
-    # back into it toward the lethal cells 0.11 m away: blocked (free arc 0.1 - one sample)
-    costmap = with_band(costmap, -0.10, -0.05, LETHAL)
-    out = follower().compute(make_input((0.01, 0.0, math.pi), [(0.01, 0), (-2.0, 0)],
+    # (box changes this test: the old one escaped the inscribed band.) The box's back, 0.2045 m
+    # behind x = 0.0085, lies 0.004 m from the wall ending at x = -0.20: nearer than the 0.01 m
+    # margin. Driving away (+x) only widens that: allowed; the graded cost 253 under the robot
+    # only slows it (x 0.5).
+    costmap = with_band(costmap, -0.20, 0.10, INSCRIBED)
+    out = follower().compute(make_input((0.0085, 0.0, 0.0), [(0.0085, 0), (2.0, 0)],
                                         costmap=costmap))
+    assert out.status == "following" and out.linear_mps == pytest.approx(0.5 * V_MAX)
+    # facing a wall 0.0085 m from its front (x = 0.10, front at 0.015 + 0.0765): nearer -> blocked
+    ahead = with_band(empty_costmap(), 0.10, 0.30, LETHAL)
+    out = follower().compute(make_input((0.015, 0.0, 0.0), [(0.015, 0), (2.0, 0)], costmap=ahead))
     assert out.status == "blocked"
+
+
+def test_blocked_when_the_box_not_the_centre_would_hit_a_corner():
+    # A block's corner beside the path: y from 0.10, x from 0.30. The centre drives along
+    # y = 0, 0.10 m from it, and never meets it; the box, 0.153 m to each side, does: from
+    # x = 0.30 - 0.01 - 0.0765 = 0.2135. From x = 0.15 only 0.06 m is free: blocked, and the
+    # detail names the body. The same block 0.17 m off (beyond 0.153 + 0.01) is passed.
+    costmap = empty_costmap()
+    costmap[22:30, 26:36] = LETHAL                    # y in [0.10, 0.50), x in [0.30, 0.80)
+    path = [(0.15, 0.0), (2.0, 0.0)]
+    centres = np.arange(0.15, 2.0, 0.01)
+    assert all(cost_at(costmap, x, 0.0) == FREE for x in centres)   # the centre's cells are free
+    out = follower().compute(make_input((0.15, 0.0, 0.0), path, velocity=(V_MAX, 0),
+                                        costmap=costmap))
+    assert out.status == "blocked" and "body" in out.detail
+    costmap = empty_costmap()
+    costmap[24:30, 26:36] = LETHAL                    # y from 0.20: 0.047 m beside the box
+    out = follower().compute(make_input((0.15, 0.0, 0.0), path, velocity=(V_MAX, 0),
+                                        costmap=costmap))
+    assert out.status == "following" and out.linear_mps == pytest.approx(V_MAX)
+
+
+def test_turning_in_place_blocked_where_the_box_would_hit():
+    # A 0.40 m corridor (walls y <= -0.20 and y >= 0.20): the box (0.153 m to each side) fits
+    # facing along it, the 0.257 m turning disc does not, and turning round would swing its back
+    # (0.2045 m behind) into a wall. A path back the other way: "blocked", not "rotating". In a
+    # 0.6 m corridor the disc fits: it turns.
+    costmap = empty_costmap()
+    costmap[:16, :] = LETHAL                          # y < -0.20
+    costmap[24:, :] = LETHAL                          # y >= 0.20
+    back = [(1.0, 0.0), (0.0, 0.0)]
+    out = follower().compute(make_input((1.0, 0.0, 0.0), back, costmap=costmap))
+    assert (out.status, out.linear_mps, out.angular_radps) == ("blocked", 0.0, 0.0)
+    assert "turning" in out.detail
+    wide = empty_costmap()
+    wide[:14, :] = LETHAL                             # y < -0.30
+    wide[26:, :] = LETHAL                             # y >= 0.30
+    out = follower().compute(make_input((1.0, 0.0, 0.0), back, costmap=wide))
+    assert out.status == "rotating"
+
+
+def test_stops_on_a_tight_corner_and_turns_in_place():
+    # A 0.45 m corridor east along y = 0 turning north at x = 1.0 into another 0.45 m one, in a
+    # 0.6 m square corner (walls 0.3 m from (1.0, 0)): the disc does not clear the walls by 0.1 m
+    # there, so the robot does not cut it: it stops on it (within 0.01 m + one period's
+    # rounding), turns in place to north, and drives on along x = 1.0.
+    occ = np.full((80, 80), 100, np.int8)
+    occ[16:25, 10:45] = 0          # east: x in [-0.5, 1.25), y in [-0.2, 0.25), 9 cells
+    occ[14:27, 34:46] = 0          # the corner square: x in [0.7, 1.3), y in [-0.3, 0.35)
+    occ[14:75, 36:45] = 0          # north: x in [0.8, 1.25)
+    costmap = np.where(occ > 0, LETHAL, FREE).astype(np.uint8)
+    path = [(0.0, 0.025), (1.025, 0.025), (1.025, 2.0)]
+    trace = drive(follower(), path, costmap, (0.0, 0.025, 0.0), 30.0)
+    statuses = [o.status for _, _, o in trace]
+    assert statuses[-1] == "arrived"
+    turning = [(p, o) for _, p, o in trace if o.status == "rotating"]
+    assert turning and all(math.hypot(p[0] - 1.025, p[1] - 0.025) < 0.02 for p, _ in turning)
 
 
 # ---------------------------------------------------------------- degenerate inputs

@@ -4,6 +4,9 @@ import math
 import numpy as np
 import pytest
 
+from turtlebot_recon import _native
+from turtlebot_recon.planning import (CostmapSettings, PlannerSettings, PlanningError,
+                                      footprint_clear, make_costmap, plan)
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
@@ -63,14 +66,16 @@ def test_goal_behind_a_closed_wall_is_unreachable(nav):
 def test_map_change_along_the_path_triggers_a_replan(nav):
     nav.set_goal(3.5, 1.5)
     nav.step(0.0, (0.5, 1.5, 0.0), (0.0, 0.0))
-    assert len(nav.dense_xy) > 10 and not nav._need_plan
+    assert len(nav.path_poses) > 10 and not nav._need_plan
     occ = room()
     occ[20:40, 40] = 100                                      # a wall appears across the straight path
     nav.update_map(occ, RES, (0.0, 0.0))
     assert nav._need_plan
     nav.step(0.1, (0.5, 1.5, 0.0), (0.0, 0.0))
-    cells = [(int(y / RES), int(x / RES)) for x, y in nav.dense_xy]
-    assert all(nav.map.costmap[c] < 253 for c in cells)      # the new plan goes around it
+    # the new plan goes around it: the footprint fits at every one of its poses
+    assert footprint_clear(occ, RES, (0.0, 0.0), nav.robot, nav.path_poses, nav.lattice).all()
+    beside = np.abs(nav.path_poses[:, 0] - 2.025) < 0.1      # at the wall's column (x 2.0-2.05)
+    assert (nav.path_poses[beside, 1] > 2.0).all()            # only past its end (y 1.0-2.0)
 
 
 def test_cancel_and_bad_goals(nav):
@@ -101,19 +106,117 @@ def test_blocked_counts_once_per_map(nav, monkeypatch):
 
 
 def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():
-    # a 0.2 m pillar at (2.0, 1.5); the waffle_pi stands on cost 221 at the edge of its band,
-    # 2 cm off its cell's centre, facing the plan's first waypoint. A shortcut checked from the
-    # cell's centre made a first leg whose line from the robot clipped an inscribed cell: every
-    # look-ahead point was "blocked", and the same plan came back each time. The first leg now
-    # goes to the next cell of the plan, from where the robot is: it drives, and arrives.
+    # a 0.2 m pillar at (2.0, 1.5); the waffle_pi stands 2 cm off its cell's centre near it,
+    # facing the plan's first waypoint. (A grid shortcut checked from the cell's centre once made
+    # a first leg that clipped the pillar's band from the robot's actual position: "blocked",
+    # plan after plan.) The path starts where the robot is: it drives, and arrives. (box
+    # changes this test: the lattice's graded cost there is 78, not the disc band's 221.)
     occ = room()
     occ[28:32, 38:42] = 100
     nav = Navigation(NavigationSettings(), load_robot("turtlebot3_waffle_pi"))
     nav.update_map(occ, RES, (0.0, 0.0))
     pose = (2.101, 1.903, -0.115)
-    assert nav.map.costmap[int(pose[1] / RES), int(pose[0] / RES)] == 221
+    assert nav.map.costmap[int(pose[1] / RES), int(pose[0] / RES)] == 78
     nav.set_goal(3.3, 1.52)
     assert nav.step(0.0, pose, (0.0, 0.0)) != (0.0, 0.0)
     x, y, _ = drive(nav, pose, 40.0)
     assert nav.status == "succeeded", nav.reason
     assert math.hypot(x - 3.3, y - 1.52) <= 0.1 + 0.03          # tolerance + one period of travel
+
+
+# ---------------------------------------------------------------- the oriented footprint
+
+WAFFLE = load_robot("turtlebot3_waffle_pi")
+
+
+def body_clearance(robot, occ, poses):
+    """Metres from the robot's body (box or disc) at each pose to the nearest obstacle square
+    (0: they meet; capped at 0.1 m), by the exact check of footprint.hpp."""
+    box = dict(footprint_length_m=robot.footprint_length_m, footprint_width_m=robot.footprint_width_m,
+               footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
+    return _native.footprint_clearance(occ, RES, (0.0, 0.0), np.asarray(poses, float).reshape(-1, 3),
+                                       **box, max_m=0.1)
+
+
+def disc_clearance(robot, occ, xy):
+    """Metres from the turning disc (radius_m) at each (x, y) to the nearest obstacle square."""
+    poses = np.column_stack([np.asarray(xy, float).reshape(-1, 2), np.zeros(len(xy))])
+    return _native.footprint_clearance(occ, RES, (0.0, 0.0), poses, radius_m=robot.radius_m, max_m=0.1)
+
+
+def drive_robot(nav, robot, occ, pose, seconds):
+    """Close the loop at 10 Hz on a unicycle whose speeds follow the command within the robot's
+    accelerations (10 substeps per period). Returns (the poses of every substep, the commands
+    with the pose they were given at)."""
+    dt, sub = 0.1, 10
+    x, y, yaw = pose
+    v = w = 0.0
+    poses, commands = [], []
+    for k in range(int(round(seconds / dt))):
+        cmd = nav.step(k * dt, (x, y, yaw), (v, w))
+        commands.append(((x, y, yaw), cmd))
+        if nav.status != "active":
+            break
+        for _ in range(sub):
+            h = dt / sub
+            v += np.clip(cmd[0] - v, -robot.max_linear_accel_mps2 * h, robot.max_linear_accel_mps2 * h)
+            w += np.clip(cmd[1] - w, -robot.max_angular_accel_radps2 * h, robot.max_angular_accel_radps2 * h)
+            x, y, yaw = x + v * math.cos(yaw) * h, y + v * math.sin(yaw) * h, yaw + w * h
+            poses.append((x, y, yaw))
+    return np.array(poses), commands
+
+
+def two_rooms(gap_cells):
+    """Two 1.9 x 2.9 m rooms joined through a 0.2 m wall (x in [1.9, 2.1)) by a gap of
+    ``gap_cells`` rows centred on y = 1.5 (9 cells: y in [1.30, 1.75))."""
+    occ = room()
+    occ[:, 38:42] = 100
+    low = 30 - gap_cells // 2
+    occ[low:low + gap_cells, 38:42] = 0
+    return occ
+
+
+def test_waffle_drives_through_a_045_gap_the_disc_planner_closes():
+    # The 2-D planner inflated by the turning disc (0.257 m + one cell diagonal 0.071 m =
+    # 0.328 m > the gap's half-width 0.225 m) finds no way through; the box (0.306 m wide) fits
+    # with 0.072 m to spare along the gap's middle row. From the west room, facing away from
+    # the gap (yaw 2.5), the navigator drives the waffle_pi to the east room; the body never
+    # comes nearer than 5 mm to a wall at any 10 ms substep.
+    occ = two_rooms(9)
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan(make_costmap(occ, RES, CostmapSettings.for_robot(WAFFLE)), (30, 10), (30, 70),
+             PlannerSettings())
+    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(3.5, 1.5)
+    poses, _ = drive_robot(nav, WAFFLE, occ, (0.8, 1.2, 2.5), 60.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.hypot(poses[-1, 0] - 3.5, poses[-1, 1] - 1.5) <= 0.1 + 0.03
+    assert (poses[:, 0] > 2.2).any()                               # through the gap
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005       # 0 collisions
+
+
+def test_turns_in_place_only_where_the_disc_fits():
+    # A 0.45 m corridor east (y in [0.5, 0.95)), then north (x in [1.6, 2.05)), joined by a
+    # 0.8 m square room at the corner (x, y in [1.4, 2.2)): the box fits the corridors, the
+    # turning disc (0.257 m) only the room. The navigator drives the waffle_pi round the
+    # corner; every in-place turn of more than the 0.03 rad alignment happens where the disc
+    # clears the walls (the small alignment turns elsewhere sweep the box clear), and the body
+    # never comes nearer than 5 mm to a wall.
+    occ = np.full((80, 60), 100, np.int8)
+    occ[10:19, 2:41] = 0            # east corridor: x in [0.1, 2.05), y in [0.5, 0.95)
+    occ[10:75, 32:41] = 0           # north corridor: x in [1.6, 2.05), y in [0.5, 3.75)
+    occ[6:22, 28:44] = 0            # the corner room: x in [1.4, 2.2), y in [0.3, 1.1)
+    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(1.825, 3.4)
+    poses, commands = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
+    assert nav.status == "succeeded", nav.reason
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+    turning = np.array([p for p, (v, w) in commands if v == 0.0 and w != 0.0])
+    assert len(turning) >= 10                                     # 90 deg at <= 0.8 rad/s: >= 2 s
+    in_room = (turning[:, 0] > 1.4) & (turning[:, 0] < 2.2) & (turning[:, 1] > 0.3) & (turning[:, 1] < 1.1)
+    assert disc_clearance(WAFFLE, occ, turning[in_room, :2]).min() > 0.0
+    # in-place turning where the disc does not fit: alignment only (w x 0.1 s per period)
+    assert sum(abs(w) * 0.1 for p, (v, w) in commands
+               if v == 0.0 and disc_clearance(WAFFLE, occ, [p[:2]])[0] == 0.0) < 0.1

@@ -4,7 +4,7 @@ Every controller (the pure pursuit follower now, MPPI / DWA in a later issue) im
 small contract, ``Controller``: ``reset()`` when a navigation goal starts or is cancelled, and
 ``compute(ControlInput) -> ControlOutput`` once per control period. The caller (the navigator)
 owns time, TF, the global plan and replanning; a controller only turns the plan, the pose and
-the costmap into one velocity command and a status:
+the map into one velocity command and a status:
 
 - ``following``: driving along the path;
 - ``rotating``:  turning in place, toward the path or, at the goal, to ``goal_yaw``;
@@ -12,10 +12,17 @@ the costmap into one velocity command and a status:
 - ``blocked``:   the way ahead (or the robot's own cell) is in collision; zero command; replan;
 - ``no_path``:   fewer than two usable waypoints; zero command.
 
+Collisions are the robot's body (the oriented box, or a round robot's disc) against the
+occupancy grid: every controller checks the poses it is about to drive through with
+``footprint.BodyCheck`` (the planner's exact geometry, include/turtlebot_recon/footprint.hpp),
+built once from the robot and its margin; the costmap is for grading (slowing down near
+obstacles, a critic's cost), never for collisions.
+
 Poses and paths are in the map frame (m, rad), velocities in the robot frame (REP-103: +x
-forward, +w counter-clockwise). Costmaps follow the Nav2 convention (0 free .. 252 graded,
-253 inscribed, 254 lethal, 255 unknown), row 0 at the smallest y, cell (r, c) centred at
-origin + ((c + 0.5) res, (r + 0.5) res).
+forward, +w counter-clockwise). The occupancy grid is int8 (-1 unknown, 0..100, map_server's
+threshold 65 for an obstacle); the costmap, on the same grid, follows the Nav2 convention (0
+free .. 252 graded, 253 where no heading of the body fits, 254 lethal, 255 unknown); row 0 at
+the smallest y, cell (r, c) centred at origin + ((c + 0.5) res, (r + 0.5) res).
 """
 from __future__ import annotations
 
@@ -36,9 +43,12 @@ class ControlInput:
     now_s: float                 # time of this step (s); controllers with memory in time use it
     pose: tuple                  # (x m, y m, yaw rad)
     velocity: tuple              # measured (v m/s, w rad/s), robot frame
-    path: np.ndarray             # float (n, 2) waypoints, start .. goal (the global plan)
+    path: np.ndarray             # float (n, 2) waypoints, start .. goal (the global plan): the
+                                 # robot's position, then the ends of straight segments, at
+                                 # which it may turn in place (a lattice plan's corners)
     goal_yaw: Optional[float]    # final heading wanted (rad), or None for any
-    costmap: np.ndarray          # uint8 (rows, cols), Nav2 costs
+    occupancy: np.ndarray        # int8 (rows, cols): -1 unknown, 0..100; collisions (BodyCheck)
+    costmap: np.ndarray          # uint8 (rows, cols), Nav2 costs of the same grid; grading only
     resolution: float            # m per cell
     origin: tuple                # (x m, y m[, yaw]) of the grid's corner; yaw must be 0
 
@@ -62,9 +72,10 @@ class Controller(Protocol):
 
 
 # The contract above is defined before the implementations, which import it from here.
+from .footprint import BodyCheck  # noqa: E402
 from .follower import FollowerSettings, PurePursuit  # noqa: E402
 
 __all__ = [
     "FOLLOWING", "ROTATING", "ARRIVED", "BLOCKED", "NO_PATH", "STATUSES",
-    "ControlInput", "ControlOutput", "Controller", "FollowerSettings", "PurePursuit",
+    "ControlInput", "ControlOutput", "Controller", "BodyCheck", "FollowerSettings", "PurePursuit",
 ]

@@ -16,21 +16,30 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
 5. curvature  kappa = 2 sin(alpha) / D (Coulter 1992), D = distance to the carrot.
 6. speed      v = min(v_max, w_max / |kappa|, sqrt(2 a d_goal)) * costmap slowdown, w = kappa v:
               slow in turns, stop at the goal with the robot's acceleration, slow near obstacles.
-7. collision  seed 003's ``is_colliding``, on the arc: roll (v, w) forward for
-              ``collision_horizon_s`` in half-cell steps; the first sample on a collision cell
-              (inscribed or lethal, or unknown if ``unknown_is_collision``) caps v so that the
-              horizon ends before it; if less than ``collision_stop_distance_m`` of the arc is
-              free, steps 3-7 are tried again with L_d halved, down to one cell (a nearer
-              carrot keeps to the collision-free plan where the arc to a far one cuts a corner
-              into the inflation); if even that is blocked, a robot off inscribed cost turns in
-              place toward that one-cell carrot (it stands at the band's edge facing into it),
-              and one already facing it stops: zero command, "blocked" (the navigator
-              replans). The robot standing on lethal cost is "blocked" too.
+7. collision  seed 003's ``is_colliding``, on the arc, with the robot's body: roll (v, w)
+              forward for ``collision_horizon_s``, a pose every ``CHECK_STEP_M``; the first pose
+              whose body (the oriented box, control.footprint.BodyCheck) comes within
+              ``collision_margin_m`` of an obstacle, or whose centre is on unknown space (if
+              ``unknown_is_collision``), caps v so that the horizon ends before it; if less
+              than ``collision_stop_distance_m`` of the arc is free, steps 3-7 are tried again
+              with L_d halved, down to one cell (a nearer carrot keeps to the collision-free
+              plan where the arc to a far one cuts a corner); if even that is blocked, the
+              robot turns in place toward that one-cell carrot where the turn is clear, and
+              one already facing it stops: zero command, "blocked" (the navigator replans).
+              The robot's centre on an obstacle cell is "blocked" too. A robot already nearer
+              than the margin may drive on through poses no nearer than it stands (escaping).
 
-Only the footprint's centre is checked, against the inflated costmap, whose inscribed radius
-is the footprint's circumscribed radius about base_footprint plus one cell diagonal
-(``CostmapSettings.for_robot``, ``make_costmap``): turning in place sweeps that disc and does
-not move the centre, so it is safe wherever the centre is. The follower never reverses.
+Tight corners. The path's corners are where the plan turns in place (a lattice plan's turns). A
+corner where the turning disc clears every obstacle by ``corner_cut_clearance_m`` is cut with
+the pure-pursuit arc; at any other (a narrow place) the robot follows the plan itself: the
+carrot never passes the corner, the robot stops on it (within ``corner_tolerance_m``; v <=
+distance / control period, so one period does not overshoot it), turns in place to the next
+segment's heading (to within ``align_tolerance_rad``, the sweep checked), and drives on. The
+start of the path is such a corner when the robot stands in a narrow place.
+
+Turning in place (steps 2, 4, 7, corners) is allowed only where BodyCheck.turn_clear finds the
+turn safe: the turning disc fits, or the box is clear at every yaw of the sweep. The follower
+never reverses.
 """
 from __future__ import annotations
 
@@ -44,11 +53,11 @@ from ..config import positive, require
 from ..geometry import inside, points_to_cells, wrap_angle
 from ..robot import RobotSpec
 from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
+from .footprint import BodyCheck
 
-# the costmap values of planning.costmap, repeated: control must not import planning, whose
-# navigator imports control
-INSCRIBED, LETHAL, NO_INFORMATION = 253, 254, 255
-_COST_NAMES = {INSCRIBED: "inscribed", LETHAL: "lethal", NO_INFORMATION: "unknown"}
+NO_INFORMATION = 255   # planning.costmap's value, repeated: control must not import planning
+CHECK_STEP_M = 0.005   # look-ahead poses this far apart: half the margin, so a body between
+                       # two clear poses keeps at least half of it
 _TINY = 1e-9
 
 
@@ -83,15 +92,26 @@ class FollowerSettings:
                                          # and about the carrot distance
     collision_stop_distance_m: float = 0.1   # less free arc than this: blocked; two 5 cm cells,
                                          # 4 control periods at full speed
-    unknown_is_collision: bool = True    # unknown space may hide a wall; the planner keeps to
-                                         # known space anyway
+    unknown_is_collision: bool = True    # the centre on unknown space: collision (it may hide a
+                                         # wall; the planner keeps to known space anyway)
+    collision_margin_m: float = 0.01     # the body nearer an obstacle's edge than this collides;
+                                         # half the planner's 0.02 m: the robot follows the plan
+                                         # to within about a centimetre
+    # tight corners (see the module)
+    corner_cut_clearance_m: float = 0.1  # cut a corner with an arc only where the turning disc
+                                         # clears obstacles by this much (an arc strays a few cm)
+    corner_tolerance_m: float = 0.01     # on a tight corner within this distance of it
+    align_tolerance_rad: float = 0.03    # leave a tight corner this close to the next heading:
+                                         # the box's back corner then sits 0.2 x 0.03 = 6 mm off
 
     def validate(self, src: str) -> None:
         positive(src, self, "lookahead_min_m", "lookahead_max_m", "lookahead_time_s",
                  "progress_window_m", "rotate_threshold_rad", "rotate_speed_max_radps",
                  "rotate_speed_min_radps", "rotate_gain_per_s", "xy_goal_tolerance_m",
                  "yaw_goal_tolerance_rad", "near_obstacle_speed_fraction", "collision_horizon_s",
-                 "collision_stop_distance_m")
+                 "collision_stop_distance_m", "collision_margin_m", "corner_tolerance_m",
+                 "align_tolerance_rad")
+        require(self.corner_cut_clearance_m >= 0, src, "corner_cut_clearance_m", "must be >= 0")
         require(self.lookahead_min_m <= self.lookahead_max_m, src, "lookahead_max_m",
                 f"must be >= lookahead_min_m ({self.lookahead_min_m})")
         require(self.rotate_threshold_rad <= math.pi, src, "rotate_threshold_rad", "must be <= pi")
@@ -142,30 +162,42 @@ class _Track:
 
 
 class _Grid:
-    """Costmap lookups in map coordinates; off the grid reads as unknown."""
+    """Occupancy and costmap lookups in map coordinates; off the grid reads as unknown."""
 
-    def __init__(self, costmap: np.ndarray, resolution: float, origin: tuple):
-        self.cost, self.res = costmap, resolution
+    def __init__(self, occupancy: np.ndarray, costmap: np.ndarray, resolution: float,
+                 origin: tuple):
+        self.occ, self.cost, self.res = occupancy, costmap, resolution
         self.ox, self.oy = float(origin[0]), float(origin[1])
 
     @staticmethod
-    def make(costmap, resolution, origin) -> Optional["_Grid"]:
+    def make(occupancy, costmap, resolution, origin) -> Optional["_Grid"]:
         try:
-            grid = np.asarray(costmap)
+            occ, cost = np.asarray(occupancy), np.asarray(costmap)
             res, ox, oy = float(resolution), float(origin[0]), float(origin[1])
         except (TypeError, ValueError, IndexError):
             return None
-        if grid.ndim != 2 or grid.size == 0 or not (math.isfinite(res) and res > 0) \
+        if occ.ndim != 2 or occ.size == 0 or cost.shape != occ.shape \
+                or not (math.isfinite(res) and res > 0) \
                 or not (math.isfinite(ox) and math.isfinite(oy)):
             return None
-        return _Grid(grid, res, (ox, oy))
+        return _Grid(occ.astype(np.int8, copy=False), cost, res, (ox, oy))
+
+    def _cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple:
+        rows, cols = points_to_cells(np.stack([xs, ys], axis=-1), self.res, (self.ox, self.oy))
+        return rows, cols, inside(rows, cols, self.occ.shape)
 
     def lookup(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        """Costs at the finite points (xs, ys) m, map frame."""
-        rows, cols = points_to_cells(np.stack([xs, ys], axis=-1), self.res, (self.ox, self.oy))
-        on_grid = inside(rows, cols, self.cost.shape)
+        """Costs at the finite points (xs, ys) m, map frame (off the grid: NO_INFORMATION)."""
+        rows, cols, on_grid = self._cells(xs, ys)
         out = np.full(rows.shape, NO_INFORMATION, dtype=np.int32)
         out[on_grid] = self.cost[rows[on_grid], cols[on_grid]]
+        return out
+
+    def occupancy(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """Occupancy at the finite points (xs, ys) m (off the grid: -1, unknown)."""
+        rows, cols, on_grid = self._cells(xs, ys)
+        out = np.full(rows.shape, -1, dtype=np.int32)
+        out[on_grid] = self.occ[rows[on_grid], cols[on_grid]]
         return out
 
 
@@ -186,11 +218,13 @@ def _clean_path(path) -> Optional[np.ndarray]:
 
 
 class PurePursuit:
-    """Adaptive pure pursuit with goal deceleration, cost slowdown and an arc collision check."""
+    """Adaptive pure pursuit with goal deceleration, cost slowdown, an arc collision check with
+    the robot's body and in-place turns on tight corners."""
 
     def __init__(self, settings: FollowerSettings, robot: RobotSpec):
         self.settings = settings
         self.robot = robot
+        self.body = BodyCheck(robot, settings.collision_margin_m)
         self.reset()
 
     def reset(self) -> None:
@@ -198,6 +232,7 @@ class PurePursuit:
         self._progress_m: Optional[float] = None   # arc length of the closest point so far
                                                    # (never decreases); None: not located yet
         self._xy_reached = False        # latched once within xy_goal_tolerance_m
+        self._last_now_s: Optional[float] = None
 
     # ------------------------------------------------------------------ the step
     def compute(self, inp: ControlInput) -> ControlOutput:
@@ -209,12 +244,13 @@ class PurePursuit:
             x, y, yaw = (float(v) for v in inp.pose[:3])
         except (TypeError, ValueError):
             x = y = yaw = math.nan
-        grid = _Grid.make(inp.costmap, inp.resolution, inp.origin)
+        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
         if grid is None:                                 # cannot judge safety: do not move
-            return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable costmap")
+            return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable map")
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
         xy = np.array([x, y])
+        period_s = self._period(inp.now_s)
 
         # 1. progress: the closest point, forward from the last one only
         if self._progress_m is None:
@@ -226,9 +262,9 @@ class PurePursuit:
         d_goal_xy = float(np.hypot(*(track.goal - xy)))
         goal_tuple = (float(track.goal[0]), float(track.goal[1]))
 
-        start_cost = int(grid.lookup(np.array([x]), np.array([y]))[0])
-        if start_cost == LETHAL:
+        if grid.occupancy(np.array([x]), np.array([y]))[0] >= self.body.occupied_threshold:
             return ControlOutput(0.0, 0.0, BLOCKED, goal_tuple, "the robot's cell is an obstacle")
+        start_cost = int(grid.lookup(np.array([x]), np.array([y]))[0])
 
         # 2. goal: latched xy tolerance, then the heading
         tol = cfg.xy_goal_tolerance_m
@@ -240,37 +276,51 @@ class PurePursuit:
             err = wrap_angle(float(goal_yaw) - yaw)
             if abs(err) <= cfg.yaw_goal_tolerance_rad:
                 return ControlOutput(0.0, 0.0, ARRIVED, goal_tuple)
-            return ControlOutput(0.0, self._turn_rate(err), ROTATING, goal_tuple)
+            return self._turn(inp, (x, y, yaw), err, goal_tuple, "the goal's heading")
 
-        # 3. carrot at L_d beyond the closest point
+        # tight corners: stop on one, turn to the next segment, never let the carrot pass one
+        corner_s, next_dir = self._tight_corner(inp, track, xy)
+        if next_dir is not None:
+            err = wrap_angle(math.atan2(next_dir[1], next_dir[0]) - yaw)
+            if abs(err) > cfg.align_tolerance_rad:
+                here = (float(x), float(y))
+                return self._turn(inp, (x, y, yaw), err, here, "the next segment's heading")
+        cap_m = corner_s - self._progress_m if corner_s is not None else math.inf
+
+        # 3. carrot at L_d beyond the closest point, not past a tight corner
         v_meas = float(inp.velocity[0]) if _finite_first(inp.velocity) else 0.0
         lookahead_m = min(max(cfg.lookahead_time_s * abs(v_meas), cfg.lookahead_min_m),
-                          cfg.lookahead_max_m)
+                          cfg.lookahead_max_m, cap_m)
         d_goal_m = max(remaining_m, d_goal_xy)
+        v_cap = cap_m / period_s if math.isfinite(cap_m) else math.inf
 
         # 3-7 with L_d, then (the arc blocked) with L_d halved down to one cell: a nearer carrot
-        # hugs the collision-free plan where the arc to a far one cuts a corner into inflation.
+        # hugs the collision-free plan where the arc to a far one cuts a corner.
         blocked = None
         while True:
-            out, why = self._toward(track, grid, x, y, yaw, lookahead_m, d_goal_m, start_cost)
+            out, why = self._toward(inp, track, grid, x, y, yaw, lookahead_m, d_goal_m,
+                                    start_cost, v_cap)
             if out is not None:
                 return out
             blocked = blocked or why
             if lookahead_m <= grid.res:
-                # Every arc enters the band: the robot stands at its edge facing into it (a
-                # corner taken tight). Turning in place is safe on any cell below inscribed, so
-                # face the nearest carrot first; the next arc then runs along the plan.
+                # Every arc is blocked: the robot stands facing into an obstacle (a corner taken
+                # tight). Face the nearest carrot first where the turn is clear; the next arc
+                # then runs along the plan.
                 near = why[0]
                 alpha = wrap_angle(math.atan2(near[1] - y, near[0] - x) - yaw)
-                if start_cost < INSCRIBED and abs(alpha) > cfg.yaw_goal_tolerance_rad:
+                if abs(alpha) > cfg.yaw_goal_tolerance_rad \
+                        and self.body.turn_clear(inp, (x, y, yaw), alpha):
                     return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, near)
                 return ControlOutput(0.0, 0.0, BLOCKED, blocked[0], blocked[1])
             lookahead_m = max(0.5 * lookahead_m, grid.res)
 
-    def _toward(self, track: "_Track", grid: "_Grid", x: float, y: float, yaw: float,
-                lookahead_m: float, d_goal_m: float, start_cost: int) -> tuple:
+    def _toward(self, inp: ControlInput, track: "_Track", grid: "_Grid", x: float, y: float,
+                yaw: float, lookahead_m: float, d_goal_m: float, start_cost: int,
+                v_cap: float) -> tuple:
         """Steps 3-7 for one look-ahead distance: (the command, None), or (None, (carrot,
-        why blocked)) when less than ``collision_stop_distance_m`` of its arc is free."""
+        why blocked)) when less than ``collision_stop_distance_m`` of its arc is free or the
+        turn toward the carrot is not clear."""
         cfg = self.settings
         carrot = track.point_at(self._progress_m + lookahead_m)
         carrot_tuple = (float(carrot[0]), float(carrot[1]))
@@ -278,24 +328,28 @@ class PurePursuit:
         dist_m = math.hypot(dx, dy)
         alpha = wrap_angle(math.atan2(dy, dx) - yaw) if dist_m > _TINY else 0.0
 
-        # 4. far off heading: turn in place first
+        # 4. far off heading: turn in place first, where the turn is clear
         if abs(alpha) > cfg.rotate_threshold_rad:
+            if not self.body.turn_clear(inp, (x, y, yaw), alpha):
+                return None, (carrot_tuple, f"turning {alpha:.2f} rad in place toward "
+                              f"({carrot[0]:.2f}, {carrot[1]:.2f}) would bring the body within "
+                              f"{cfg.collision_margin_m} m of an obstacle; robot at "
+                              f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)")
             return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, carrot_tuple), None
 
         # 5. curvature of the arc through the carrot, 6. speed limits
         kappa = 2.0 * math.sin(alpha) / dist_m if dist_m > _TINY else 0.0
-        v = self._speed(kappa, d_goal_m, start_cost)
+        v = min(self._speed(kappa, d_goal_m, start_cost), v_cap)
 
         # 7. look-ahead collision check along the arc
         horizon_m = max(v * cfg.collision_horizon_s, cfg.collision_stop_distance_m)
-        free_m, hit_xy, hit_cost = self._free_arc(grid, x, y, yaw, kappa, horizon_m, start_cost, track.goal)
+        free_m, hit_xy, what = self._free_arc(inp, grid, x, y, yaw, kappa, horizon_m, track.goal)
         if free_m is not None:
             if free_m < cfg.collision_stop_distance_m:
                 return None, (carrot_tuple, (
-                    f"{_COST_NAMES.get(hit_cost, 'cost %d' % hit_cost)} cell {free_m:.2f} m ahead at "
-                    f"({hit_xy[0]:.2f}, {hit_xy[1]:.2f}) on the arc to the look-ahead point "
-                    f"({carrot[0]:.2f}, {carrot[1]:.2f}); robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad) "
-                    f"on cost {start_cost}"))
+                    f"{what} {free_m:.2f} m ahead at ({hit_xy[0]:.2f}, {hit_xy[1]:.2f}) on the "
+                    f"arc to the look-ahead point ({carrot[0]:.2f}, {carrot[1]:.2f}); robot at "
+                    f"({x:.2f}, {y:.2f}, {yaw:.2f} rad) on cost {start_cost}"))
             v = min(v, free_m / cfg.collision_horizon_s)     # the horizon ends before the hit
         w_max = self.robot.max_angular_radps
         w = min(max(kappa * v, -w_max), w_max)
@@ -316,6 +370,43 @@ class PurePursuit:
             self._progress_m = None     # a new path is searched whole once, then only forward
         return self._track
 
+    def _period(self, now_s) -> float:
+        """The control period (s) from the last two steps' times; 0.1 s until there are two."""
+        try:
+            now = float(now_s)
+        except (TypeError, ValueError):
+            now = math.nan
+        last, self._last_now_s = self._last_now_s, now
+        dt = now - last if last is not None else math.nan
+        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 0.1
+
+    def _tight_corner(self, inp: ControlInput, track: "_Track", xy: np.ndarray) -> tuple:
+        """(arc length of the next tight corner ahead or None, the direction of the segment
+        after the tight corner the robot stands on or None). Corners: the start and every
+        interior point; tight: the turning disc does not clear obstacles by
+        ``corner_cut_clearance_m`` there (at the start: where the robot stands)."""
+        cfg = self.settings
+        n = len(track.points)
+        if n < 2:
+            return None, None
+        s = self._progress_m
+        points = track.points[:-1].copy()
+        points[0] = xy
+        ahead = track.s[:-1] >= s - cfg.corner_tolerance_m
+        ahead[0] = s <= cfg.corner_tolerance_m
+        idx = np.flatnonzero(ahead)
+        if idx.size == 0:
+            return None, None
+        tight = ~self.body.disc_clear(inp, points[idx], cfg.corner_cut_clearance_m)
+        idx = idx[tight]
+        if idx.size == 0:
+            return None, None
+        k = int(idx[0])
+        if track.s[k] - s <= cfg.corner_tolerance_m:     # standing on it
+            later = idx[1:]
+            return (float(track.s[later[0]]) if later.size else None), track.seg[k]
+        return float(track.s[k]), None
+
     def _speed(self, kappa: float, d_goal_m: float, cost: int) -> float:
         """v_max, then w_max / |kappa| (turns), sqrt(2 a d) (goal), the cost slowdown."""
         r = self.robot
@@ -333,39 +424,55 @@ class PurePursuit:
         mag = min(max(cfg.rotate_gain_per_s * abs(err), cfg.rotate_speed_min_radps), top)
         return math.copysign(mag, err)
 
-    def _colliding(self, cost: np.ndarray) -> np.ndarray:
-        hit = (cost >= INSCRIBED) & (cost != NO_INFORMATION)
-        return hit | (cost == NO_INFORMATION) if self.settings.unknown_is_collision else hit
+    def _turn(self, inp: ControlInput, pose: tuple, err: float, target: tuple,
+              what: str) -> ControlOutput:
+        """Turn in place by ``err`` toward ``what`` if the turn is clear, else "blocked"."""
+        if self.body.turn_clear(inp, pose, err):
+            return ControlOutput(0.0, self._turn_rate(err), ROTATING, target)
+        return ControlOutput(0.0, 0.0, BLOCKED, target, (
+            f"turning {err:.2f} rad in place to {what} would bring the body within "
+            f"{self.settings.collision_margin_m} m of an obstacle; robot at ({pose[0]:.2f}, "
+            f"{pose[1]:.2f}, {pose[2]:.2f} rad)"))
 
-    def _free_arc(self, grid: _Grid, x: float, y: float, yaw: float, kappa: float,
-                  length_m: float, start_cost: int, goal: np.ndarray) -> tuple:
-        """(free arc length before the first collision sample within ``length_m``, that
-        sample's (x, y), its cost), or (None, None, None) when the arc is free.
+    def _free_arc(self, inp: ControlInput, grid: _Grid, x: float, y: float, yaw: float,
+                  kappa: float, length_m: float, goal: np.ndarray) -> tuple:
+        """(free arc length before the first colliding pose within ``length_m``, that pose's
+        (x, y), what it hits), or (None, None, None) when the arc is free.
 
-        Samples every half cell along the arc of curvature ``kappa`` from the pose; samples past
-        the goal are not checked (the robot stops there). A robot that already stands on a
-        collision cell (inscribed, or unknown) may drive on through cells of that same cost
-        until it first leaves them, so it can get out; lethal cells always collide.
+        Poses every CHECK_STEP_M along the arc of curvature ``kappa``; poses past the goal are
+        not checked (the robot stops there). A pose collides when the body comes within
+        ``collision_margin_m`` of an obstacle, or (``unknown_is_collision``) its centre is on
+        unknown space. A robot already that near may drive on through poses no nearer than
+        it stands, and one on unknown space through unknown cells, until it first leaves
+        them, so it can get out.
         """
-        ds = max(0.5 * grid.res, length_m / 1000.0)       # at most 1000 samples
-        s = ds * np.arange(1, int(math.ceil(length_m / ds)) + 1)
+        cfg = self.settings
+        ds = max(CHECK_STEP_M, length_m / 1000.0)         # at most 1000 poses
+        s = ds * np.arange(0, int(math.ceil(length_m / ds)) + 1)
         half = 0.5 * kappa * s
         chord = s * np.sinc(half / math.pi)                # 2 sin(kappa s / 2) / kappa, exact arc
         xs, ys = x + chord * np.cos(yaw + half), y + chord * np.sin(yaw + half)
-        at_goal = np.flatnonzero(np.hypot(xs - goal[0], ys - goal[1])
-                                 <= self.settings.xy_goal_tolerance_m)
+        at_goal = np.flatnonzero(np.hypot(xs - goal[0], ys - goal[1]) <= cfg.xy_goal_tolerance_m)
         if at_goal.size:
             n = at_goal[0] + 1
-            s, xs, ys = s[:n], xs[:n], ys[:n]
-        cost = grid.lookup(xs, ys)
-        bad = self._colliding(cost)
-        if self._colliding(np.array([start_cost]))[0]:
-            bad &= ~np.cumprod(cost == start_cost).astype(bool)   # the leading run: escaping
+            s, xs, ys, half = s[:n], xs[:n], ys[:n], half[:n]
+        margin = cfg.collision_margin_m
+        clearance = self.body.clearance(inp, np.column_stack([xs, ys, yaw + 2.0 * half]), margin)
+        near = clearance < margin
+        if near[0]:          # escaping: the leading poses no nearer than the robot stands
+            near &= ~np.cumprod(clearance >= clearance[0] - 1e-9).astype(bool)
+        unknown = np.zeros_like(near)
+        if cfg.unknown_is_collision:
+            unknown = grid.occupancy(xs, ys) < 0
+            if unknown[0]:
+                unknown &= ~np.cumprod(unknown).astype(bool)
+        bad = (near | unknown)[1:]                         # pose 0: where the robot stands
         hits = np.flatnonzero(bad)
         if hits.size == 0:
             return None, None, None
-        k = hits[0]
-        return float(s[k] - ds), (float(xs[k]), float(ys[k])), int(cost[k])
+        k = hits[0] + 1
+        what = "an obstacle within the body's margin" if near[k] else "unknown cell"
+        return float(s[k] - ds), (float(xs[k]), float(ys[k])), what
 
 
 def _finite_first(values) -> bool:

@@ -13,7 +13,7 @@ metres and radians in the grid's frame (``origin`` is the (x, y) of cell (0, 0)'
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Sequence
 
 import numpy as np
@@ -36,14 +36,18 @@ class LatticeSettings:
     cost_weight: float = 1.0           # weight of the graded cost c / 252 per metre (as the 2-D A*)
     inflation_m: float = 0.35          # graded cost out to this far beyond the inscribed radius
     cost_scaling_factor: float = 5.0   # 1/m, decay of the graded cost (Nav2's convention)
-    cruise_speed_mps: float = 0.26     # turning costs the distance not driven meanwhile:
-    turn_speed_radps: float = 0.8      # |dtheta| / turn_speed x cruise_speed metres
+    cruise_speed_mps: float = 0.0      # turning costs the distance not driven meanwhile:
+    turn_speed_radps: float = 0.0      # |dtheta| / turn_speed x cruise_speed metres; 0: the
+                                       # robot's (with_robot)
     occupied_threshold: int = 65       # occupancy (0..100) >= this is an obstacle (map_server)
     unknown_is_obstacle: bool = False  # unknown cells collide with the body (never entered anyway)
 
     def validate(self, src: str) -> None:
         require(self.headings in (4, 8, 16), src, "headings", "must be 4, 8 or 16")
-        positive(src, self, "margin_m", "cruise_speed_mps", "turn_speed_radps")
+        positive(src, self, "margin_m")
+        for key in ("cruise_speed_mps", "turn_speed_radps"):
+            value = getattr(self, key)
+            require(value >= 0, src, key, "must be > 0, or 0 for the robot's")
         require(self.turn_margin_m >= 0, src, "turn_margin_m", "must be >= 0")
         require(self.cost_weight >= 0, src, "cost_weight", "must be >= 0")
         require(self.inflation_m >= 0, src, "inflation_m", "must be >= 0")
@@ -53,17 +57,21 @@ class LatticeSettings:
 
     @property
     def turn_cost_m_per_rad(self) -> float:
-        """Metres charged per radian turned in place: the cruise distance lost while turning."""
+        """Metres charged per radian turned in place: the cruise distance lost while turning
+        (the speeds must be set: ``with_robot``)."""
         return self.cruise_speed_mps / self.turn_speed_radps
+
+    def with_robot(self, robot: RobotSpec) -> "LatticeSettings":
+        """These settings with the speeds left 0 taken from ``robot``: its top speed, and its
+        turning speed capped at the follower's 0.8 rad/s in-place rate
+        (``FollowerSettings.rotate_speed_max_radps``)."""
+        return replace(self, cruise_speed_mps=self.cruise_speed_mps or robot.max_linear_mps,
+                       turn_speed_radps=self.turn_speed_radps or min(0.8, robot.max_angular_radps))
 
     @classmethod
     def for_robot(cls, robot: RobotSpec, **overrides) -> "LatticeSettings":
-        """Defaults with ``robot``'s cruise speed and its turning speed, capped at the follower's
-        0.8 rad/s in-place rate (``FollowerSettings.rotate_speed_max_radps``)."""
-        values = dict(cruise_speed_mps=robot.max_linear_mps,
-                      turn_speed_radps=min(0.8, robot.max_angular_radps))
-        values.update(overrides)
-        return cls(**values)
+        """Defaults (and ``overrides``) with ``robot``'s speeds (``with_robot``)."""
+        return cls(**overrides).with_robot(robot)
 
 
 @dataclass(frozen=True)
@@ -97,6 +105,7 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
     holding ``goal_xy``. Raises PlanningError naming the start or goal when it is off the grid,
     in an obstacle or unknown space, or its footprint collides, and when the goal is unreachable.
     """
+    settings = settings.with_robot(robot)
     settings.validate("LatticeSettings")
     start = geometry.xy_to_cell(start_pose[:2], resolution, origin)
     goal = geometry.xy_to_cell(goal_xy, resolution, origin)

@@ -1,14 +1,19 @@
-"""Goal-to-velocity navigation core (ROS-free): global A* plan, replanning, a path controller.
+"""Goal-to-velocity navigation core (ROS-free): a lattice plan for the robot's footprint,
+replanning, a path controller.
 
-The navigator node feeds it maps, poses and time; it plans with the core's A* on an
-inflated costmap, replans when the map changes along the path, when the controller reports
-the way blocked, and every ``replan_period_s`` (the map grows while exploring), and hands the
-path to a controller with the ``control.Controller`` contract. Nothing here blocks.
+The navigator node feeds it maps, poses and time. It plans with the state lattice
+(``planning.lattice``: forward moves whose swept box is clear, turns in place only where the
+turning disc fits; for a round robot the box is its disc, so one code path serves every robot),
+replans when the map changes under the planned poses, when the controller reports the way
+blocked, and every ``replan_period_s`` (the map grows while exploring), and hands the path to a
+controller with the ``control.Controller`` contract: the robot's position, then the end of every
+straight run of the lattice path (the corners where it turns in place), the goal last. Nothing
+here blocks.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -17,7 +22,9 @@ from .. import _native, geometry
 from ..config import positive, require
 from ..control import ControlInput, FollowerSettings, PurePursuit
 from ..robot import RobotSpec
-from .costmap import INSCRIBED, CostmapSettings, PlannerSettings, PlanningError, make_costmap, plan
+from .costmap import INSCRIBED, PlanningError
+from .lattice import (LatticePath, LatticeSettings, footprint_clear, footprint_costmap,
+                      plan_lattice)
 
 
 @dataclass(frozen=True)
@@ -29,9 +36,9 @@ class NavigationSettings:
     replan_period_s: float = 2.0         # replan at least this often while following
     max_blocked_replans: int = 3         # the controller reports blocked on this many maps in a row
                                          # (one report per map counts): fail
-    snap_radius_m: float = 0.5           # a start/goal in inscribed cost moves to the nearest free cell within this
-    # the navigator drives to a given goal: no visit penalty (the explorer weighs visits)
-    planner: PlannerSettings = field(default_factory=lambda: PlannerSettings(visit_sensitivity=0.0))
+    snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
+                                         # the nearest cell within this where it does
+    lattice: LatticeSettings = field(default_factory=LatticeSettings)
     follower: FollowerSettings = field(default_factory=FollowerSettings)
 
     def validate(self, src: str) -> None:
@@ -41,11 +48,10 @@ class NavigationSettings:
 
 @dataclass
 class MapView:
-    occupancy: np.ndarray
-    costmap: np.ndarray
+    occupancy: np.ndarray      # int8, -1 unknown, 0..100
+    costmap: np.ndarray        # uint8, the lattice's graded costmap (footprint_costmap)
     resolution: float
     origin: tuple
-    visits: Optional[np.ndarray] = None
 
     def cell(self, x: float, y: float) -> tuple:
         return geometry.xy_to_cell((x, y), self.resolution, self.origin)
@@ -58,19 +64,33 @@ class MapView:
         return geometry.cells_to_points(cells, self.resolution, self.origin)
 
 
+def run_ends(path: LatticePath) -> np.ndarray:
+    """Indices of the poses that end a straight run (reached forward, followed by a turn in place
+    or by nothing): the corners of the path, and its last pose."""
+    n = len(path.turned)
+    forward = np.zeros(n, bool)
+    forward[1:] = ~path.turned[1:]
+    followed_by_turn = np.append(path.turned[1:], True)
+    return np.flatnonzero(forward & followed_by_turn)
+
+
 class Navigation:
     """State: idle -> active -> succeeded | failed (with a reason), or idle again on cancel."""
 
-    def __init__(self, settings: NavigationSettings, robot: RobotSpec,
-                 costmap_settings: Optional[CostmapSettings] = None):
+    def __init__(self, settings: NavigationSettings, robot: RobotSpec):
         self.s = settings
-        self.costmap_settings = costmap_settings or CostmapSettings.for_robot(robot)
+        self.robot = robot
+        self.lattice = settings.lattice.with_robot(robot)
+        self.lattice.validate("lattice")
+        self._yaws = np.array([yaw for _, _, yaw in _native.lattice_headings(self.lattice.headings)])
         self.controller = PurePursuit(settings.follower, robot)
         self.map: Optional[MapView] = None
         self.status, self.reason = "idle", ""
         self.goal: Optional[tuple] = None            # (x, y, yaw or None)
+        self.goal_yaw: Optional[float] = None        # the yaw pursued: None where it does not fit
         self.path_xy = np.zeros((0, 2))               # the plan being followed (waypoints)
-        self.dense_xy = np.zeros((0, 2))              # every cell of it, for map-change checks
+        self.path_poses = np.zeros((0, 3))            # its lattice poses, for map-change checks
+        self.plan: Optional[LatticePath] = None
         self._planned_at = -math.inf
         self._need_plan = False
         self._blocked = 0
@@ -93,17 +113,15 @@ class Navigation:
     def cancel(self) -> None:
         self.goal = None
         self.status, self.reason = "idle", "cancelled"
-        self.path_xy = self.dense_xy = np.zeros((0, 2))
+        self._clear_path()
 
-    def update_map(self, occupancy: np.ndarray, resolution: float, origin: tuple,
-                   visits: Optional[np.ndarray] = None) -> None:
-        costmap = make_costmap(occupancy, resolution, self.costmap_settings)
-        self.map = MapView(occupancy, costmap, resolution, tuple(origin), visits)
-        if self.status == "active" and len(self.dense_xy):
-            rows, cols = geometry.points_to_cells(self.dense_xy, resolution, origin)
-            if not geometry.inside(rows, cols, costmap.shape).all() \
-                    or (costmap[rows, cols] >= INSCRIBED).any():
-                self._need_plan = True      # the map changed along the path
+    def update_map(self, occupancy: np.ndarray, resolution: float, origin: tuple) -> None:
+        occupancy = np.asarray(occupancy, dtype=np.int8)
+        costmap = footprint_costmap(occupancy, resolution, self.robot, self.lattice)
+        self.map = MapView(occupancy, costmap, resolution, (float(origin[0]), float(origin[1])))
+        if self.status == "active" and len(self.path_poses) \
+                and not self._poses_clear(self.path_poses).all():
+            self._need_plan = True      # the map changed under the path
 
     # ------------------------------------------------------------------ loop
     def step(self, now_s: float, pose: tuple, velocity: tuple) -> tuple:
@@ -113,9 +131,10 @@ class Navigation:
         if self._need_plan or now_s - self._planned_at >= self.s.replan_period_s:
             if not self._plan(pose, now_s):
                 return 0.0, 0.0
+        m = self.map
         out = self.controller.compute(ControlInput(
-            now_s=now_s, pose=pose, velocity=velocity, path=self.path_xy, goal_yaw=self.goal[2],
-            costmap=self.map.costmap, resolution=self.map.resolution, origin=self.map.origin))
+            now_s=now_s, pose=pose, velocity=velocity, path=self.path_xy, goal_yaw=self.goal_yaw,
+            occupancy=m.occupancy, costmap=m.costmap, resolution=m.resolution, origin=m.origin))
         self.last_output = out
         if out.status == "arrived":
             self._finish("succeeded", "arrived")
@@ -139,44 +158,102 @@ class Navigation:
         self._blocked, self._blocked_map = 0, None
         return out.linear_mps, out.angular_radps
 
-    def _snap(self, cell: tuple) -> Optional[tuple]:
+    # ------------------------------------------------------------------ planning
+    def _poses_clear(self, poses: np.ndarray) -> np.ndarray:
+        """bool (n,): the footprint fits at each pose (margin_m) and its centre is on known space."""
         m = self.map
-        if m.inside(cell) and m.costmap[cell] < INSCRIBED:
-            return cell
-        found = _native.nearest_accessible(m.costmap, cell, max_cost=INSCRIBED - 1,
-                                           max_radius_m=self.s.snap_radius_m, resolution=m.resolution)
-        return None if found is None else tuple(found)
+        rows, cols = geometry.points_to_cells(poses[:, :2], m.resolution, m.origin)
+        known = geometry.inside(rows, cols, m.occupancy.shape)
+        known[known] = m.occupancy[rows[known], cols[known]] >= 0
+        return known & footprint_clear(m.occupancy, m.resolution, m.origin, self.robot, poses,
+                                       self.lattice)
+
+    def _fit(self, cell: tuple, yaw: Optional[float], headings: int) -> Optional[tuple]:
+        """The pose (x, y, yaw) at ``cell`` where the footprint fits at one of the ``headings``
+        lattice headings nearest ``yaw`` (every heading when ``yaw`` is None); failing that, at
+        the nearest cell within ``snap_radius_m`` where it fits at some heading (the one nearest
+        ``yaw``). None if there is none."""
+        m = self.map
+        order = np.arange(len(self._yaws)) if yaw is None else \
+            np.argsort(np.abs(np.remainder(self._yaws - yaw + math.pi, 2 * math.pi) - math.pi),
+                       kind="stable")
+        reach = int(self.s.snap_radius_m / m.resolution)
+        dr, dc = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+        dist = np.hypot(dr, dc).ravel()
+        near = np.argsort(dist, kind="stable")
+        near = near[dist[near] <= reach]
+        cells = np.column_stack([cell[0] + dr.ravel()[near], cell[1] + dc.ravel()[near]])
+        on = geometry.inside(cells[:, 0], cells[:, 1], m.costmap.shape)
+        cells = cells[on]
+        cells = cells[m.costmap[cells[:, 0], cells[:, 1]] < INSCRIBED]   # some heading may fit
+        for chunk in range(0, len(cells), 64):
+            block = cells[chunk:chunk + 64]
+            own = chunk == 0 and len(block) and tuple(block[0]) == tuple(cell)
+            xy = m.centre(block)
+            yaws = self._yaws[order]
+            poses = np.column_stack([np.repeat(xy, len(yaws), axis=0), np.tile(yaws, len(xy))])
+            fits = footprint_clear(m.occupancy, m.resolution, m.origin, self.robot, poses,
+                                   self.lattice).reshape(len(xy), len(yaws))
+            if own:
+                fits[0, headings:] = False        # the robot's own cell: only the nearest headings
+            hit = np.flatnonzero(fits.any(axis=1))
+            if hit.size:
+                i = int(hit[0])
+                return float(xy[i, 0]), float(xy[i, 1]), float(yaws[int(np.argmax(fits[i]))])
+        return None
 
     def _plan(self, pose: tuple, now_s: float) -> bool:
         m = self.map
-        start = self._snap(m.cell(pose[0], pose[1]))
-        goal = self._snap(m.cell(self.goal[0], self.goal[1]))
         self._planned_at, self._need_plan = now_s, False
+        start = self._fit(m.cell(pose[0], pose[1]), pose[2], headings=2)
         if start is None:
-            return self._finish("failed", f"no free cell within {self.s.snap_radius_m} m of the robot "
-                                          f"at ({pose[0]:.2f}, {pose[1]:.2f})")
+            return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
+                                          f"({pose[0]:.2f}, {pose[1]:.2f}) where its footprint fits")
+        gx, gy, gyaw = self.goal
+        goal_cell = m.cell(gx, gy)
+        goal = self._fit(goal_cell, gyaw, headings=len(self._yaws))
         if goal is None:
-            return self._finish("failed", f"goal ({self.goal[0]:.2f}, {self.goal[1]:.2f}) is in an obstacle, "
-                                          f"unknown space or off the map, with no free cell within "
-                                          f"{self.s.snap_radius_m} m")
+            return self._finish("failed", f"goal ({gx:.2f}, {gy:.2f}) is in an obstacle, unknown "
+                                          f"space or off the map, with no cell within "
+                                          f"{self.s.snap_radius_m} m where the footprint fits")
+        # the goal's yaw is pursued where its nearest heading fits on the goal's own cell
+        nearest = None if gyaw is None else self._yaws[int(np.argmin(
+            np.abs(np.remainder(self._yaws - gyaw + math.pi, 2 * math.pi) - math.pi)))]
+        self.goal_yaw = gyaw if nearest is not None and goal[2] == nearest \
+            and m.cell(goal[0], goal[1]) == goal_cell else None
         try:
-            dense = plan(m.costmap, start, goal, replace(self.s.planner, shortcut=False),
-                         visits=m.visits, resolution=m.resolution)
+            path = self._lattice(start, goal)
         except PlanningError as exc:
             return self._finish("failed", str(exc))
-        # The path starts at the robot's exact position, anywhere in its cell, so its first leg
-        # goes to the next cell of the dense plan, whose straight line stays in the 2 x 2 block
-        # the plan crossed (no corner cutting); line-of-sight shortcuts start there. A shortcut
-        # from the start cell's centre was checked from that centre only: from the robot's
-        # actual position its line could clip an inscribed cell of a pillar's band, and every
-        # look-ahead point along it was "blocked", plan after plan.
-        rest = dense[1:]
-        waypoints = _native.shortcut(rest, m.costmap) if self.s.planner.shortcut and len(rest) > 1 else rest
-        self.dense_xy = m.centre(dense)
-        self.path_xy = np.vstack([[pose[0], pose[1]], m.centre(waypoints).reshape(-1, 2)])
+        self.plan = path
+        robot_xy = np.array([[pose[0], pose[1]]])
+        snapped = m.cell(pose[0], pose[1]) != m.cell(start[0], start[1])
+        points = [robot_xy, path.poses[:1, :2]] if snapped else [robot_xy]
+        ends = run_ends(path)
+        if ends.size == 0 or ends[-1] != len(path.poses) - 1:
+            ends = np.append(ends, len(path.poses) - 1)
+        points.append(path.poses[ends, :2])
+        self.path_xy = np.vstack(points)
+        self.path_poses = path.poses
         return True
+
+    def _lattice(self, start: tuple, goal: tuple) -> LatticePath:
+        """The lattice plan start -> goal, at the goal's yaw if it is pursued and reachable."""
+        m = self.map
+        args = (m.occupancy, m.resolution, m.origin, self.robot, start, goal[:2], self.lattice)
+        if self.goal_yaw is not None:
+            try:
+                return plan_lattice(*args, goal_yaw=self.goal_yaw)
+            except PlanningError:
+                self.goal_yaw = None       # not at that heading: at any
+        return plan_lattice(*args)
+
+    def _clear_path(self) -> None:
+        self.path_xy = np.zeros((0, 2))
+        self.path_poses = np.zeros((0, 3))
+        self.plan = None
 
     def _finish(self, status: str, reason: str) -> bool:
         self.status, self.reason = status, reason
-        self.path_xy = self.dense_xy = np.zeros((0, 2))
+        self._clear_path()
         return False
