@@ -274,8 +274,9 @@ def test_progress_never_goes_backwards_nor_jumps_a_u_turn():
 def test_stops_blocked_before_a_wall_across_the_path():
     # The body, not the centre, is checked (box changes these numbers): the waffle_pi's box
     # reaches 0.0765 m ahead. A wall from x = 0.30; the robot at x = 0.15: a look-ahead pose s
-    # along collides when 0.30 - (0.15 + s + 0.0765) < 0.01, i.e. s > 0.0635: the first such
-    # pose (every 0.005 m) is s = 0.065, so 0.06 m is free < 0.1 m stop distance -> blocked.
+    # along collides when 0.30 - (0.15 + s + 0.0765) < 0.005 (the margin), i.e. s > 0.0685: the
+    # first such pose (every 0.0025 m) is s = 0.07, so 0.0675 m is free < 0.1 m stop distance
+    # -> blocked.
     # The graded band before the wall (cost 253) is no collision: only the occupancy is.
     costmap = with_band(empty_costmap(), 0.10, 0.30, INSCRIBED)
     costmap = with_band(costmap, 0.30, 0.40, LETHAL)
@@ -285,20 +286,20 @@ def test_stops_blocked_before_a_wall_across_the_path():
     assert "obstacle" in out.detail
     out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
-    assert out.status == "following"          # 0.2035 m free: slowed, not stopped
+    assert out.status == "following"          # 0.2075 m free: slowed, not stopped
 
 
 def test_slows_when_the_arc_clips_an_obstacle_late():
     # A wall from x = 0.40, the robot at x = 0.01 going 0.26 m/s: its 1.5 s look-ahead (0.39 m)
-    # collides from s > 0.40 - 0.01 - 0.0765 - 0.01 = 0.3035, first pose s = 0.305: 0.30 m
-    # free, v = 0.30 / 1.5 = 0.2 m/s. (box changes these numbers: the centre met the old
+    # collides from s > 0.40 - 0.01 - 0.0765 - 0.005 = 0.3085, first pose s = 0.31: 0.3075 m
+    # free, v = 0.3075 / 1.5 = 0.205 m/s. (box changes these numbers: the centre met the old
     # inscribed band 0.1 m sooner.)
     costmap = with_band(empty_costmap(), 0.40, 0.60, LETHAL)
     out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
     assert out.status == "following"
-    assert out.linear_mps == pytest.approx(0.30 / 1.5)
-    # a wall from x = 0.50 lies beyond the arc (collides from s > 0.4035 > 0.39): full speed
+    assert out.linear_mps == pytest.approx(0.3075 / 1.5)
+    # a wall from x = 0.50 lies beyond the arc (collides from s > 0.4085 > 0.39): full speed
     costmap = with_band(empty_costmap(), 0.50, 0.60, LETHAL)
     out = follower().compute(make_input((0.01, 0.0, 0.0), [(0.01, 0), (2.5, 0)],
                                         velocity=(V_MAX, 0), costmap=costmap))
@@ -306,26 +307,28 @@ def test_slows_when_the_arc_clips_an_obstacle_late():
 
 
 def test_the_arc_follows_the_curvature():
-    # Path (0,0) -> (0.4,0.2) -> (0.4,2): standing still, L_d = 0.3 m puts the carrot on the
-    # first leg at (0.268, 0.134): alpha = 0.4636, kappa = 2 sin(alpha) / 0.3 = 2.98 /m (radius
-    # 0.335 m); at 0.26 m/s the 0.39 m look-ahead turns 1.16 rad. A block at x in [0.40, 0.55),
-    # y in [-0.25, -0.05) (no nearer than 0.403 m to the start: the start is no tight corner)
-    # stands in the way of driving straight (the box's front reaches it after 0.40 - 0.0765 -
-    # 0.01 = 0.3135 m < 0.39 m) but not of the arc, whose box passes >= 0.08 m above it (box
-    # changes this test: the centre passed a band at x >= 0.3). A block on the arc is hit.
+    # The burger (round: no tight corner here, see below; v_max 0.22, w_max 2.84). Path (0,0)
+    # -> (0.4,0.2) -> (0.4,2): standing still, L_d = 0.3 m puts the carrot on the first leg at
+    # (0.268, 0.134): alpha = 0.4636, kappa = 2 sin(alpha) / 0.3 = 2.98 /m (radius 0.335 m);
+    # v = 0.22 (2.84 / 2.98 does not bind), w = 2.98 x 0.22; the 1.5 s look-ahead (0.33 m)
+    # turns 0.98 rad and ends at (0.278, 0.148). A block at x in [0.40, 0.55), y in
+    # [-0.25, -0.05) lies 0.232 m from that end, and further from the rest of the arc, beyond
+    # the body (0.105 m) and its margin: full speed. Driving straight instead, the body comes
+    # within the margin of the block's corner (0.40, -0.05) once 0.4 - s < 0.098 m, at s = 0.30 m
+    # < 0.33 m: slowed. The disc clears the block by more than 0.1 m all along the path (its
+    # nearest approach, 0.224 m, is the first leg's): no corner is tight, the arc is cut.
+    # (box changes this test: the old one checked the centre against a band at x >= 0.3.)
+    burger = load_robot("turtlebot3_burger")
     path = [(0, 0), (0.4, 0.2), (0.4, 2.0)]
     costmap = empty_costmap()
     costmap[15:19, 28:31] = LETHAL
-    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=costmap))
-    assert out.status == "following" and out.linear_mps == pytest.approx(V_MAX)
-    assert out.angular_radps == pytest.approx(V_MAX * 2 * math.sin(math.atan2(1, 2)) / 0.3)
-    out = follower().compute(make_input((0.0, 0.0, 0.0), [(0, 0), (2.0, 0)], costmap=costmap,
-                                        velocity=(V_MAX, 0)))
-    assert out.status == "following" and out.linear_mps < V_MAX
-    on_arc = empty_costmap()
-    on_arc[24:26, 28:30] = LETHAL                      # y in [0.20, 0.30), x in [0.40, 0.50)
-    out = follower().compute(make_input((0.0, 0.0, 0.0), path, costmap=on_arc))
-    assert out.status == "following" and out.linear_mps < V_MAX
+    out = follower(burger).compute(make_input((0.0, 0.0, 0.0), path, costmap=costmap))
+    assert out.status == "following" and out.linear_mps == pytest.approx(burger.max_linear_mps)
+    kappa = 2 * math.sin(math.atan2(1, 2)) / 0.3
+    assert out.angular_radps == pytest.approx(kappa * burger.max_linear_mps)
+    out = follower(burger).compute(make_input((0.0, 0.0, 0.0), [(0, 0), (2.0, 0)],
+                                              costmap=costmap, velocity=(burger.max_linear_mps, 0)))
+    assert out.status == "following" and out.linear_mps < burger.max_linear_mps
 
 
 def test_the_arc_is_not_checked_past_the_goal():
@@ -356,7 +359,7 @@ def test_facing_a_wall_turns_toward_the_plan_first():
     # A wall from y = 0.20; the plan runs along y = 0, the robot on it heads 0.6 rad toward the
     # wall. Its front-left corner stands 0.0765 sin 0.6 + 0.153 cos 0.6 = 0.169 m up, 0.031 m
     # from the wall, and rises sin 0.6 = 0.56 m per metre driven: every arc toward the plan
-    # comes within 0.01 m in under 0.1 m, down to a one-cell carrot. Turning right in place
+    # comes within the 0.005 m margin in under 0.1 m, down to a one-cell carrot. Turning right in place
     # only lowers that corner (the sweep is clear, though the 0.257 m disc does not fit): it
     # turns toward the plan instead of reporting "blocked"; once facing along it, it follows.
     costmap = empty_costmap()
@@ -373,14 +376,15 @@ def test_on_an_obstacle_blocked_near_one_may_leave():
     out = follower().compute(make_input((-0.3, 0.0, 0.0), [(-0.3, 0), (2.0, 0)], costmap=costmap))
     assert out.status == "blocked"                                      # standing on lethal
     # (box changes this test: the old one escaped the inscribed band.) The box's back, 0.2045 m
-    # behind x = 0.0085, lies 0.004 m from the wall ending at x = -0.20: nearer than the 0.01 m
+    # behind x = 0.0085, lies 0.004 m from the wall ending at x = -0.20: nearer than the 0.005 m
     # margin. Driving away (+x) only widens that: allowed; the graded cost 253 under the robot
     # only slows it (x 0.5).
     costmap = with_band(costmap, -0.20, 0.10, INSCRIBED)
     out = follower().compute(make_input((0.0085, 0.0, 0.0), [(0.0085, 0), (2.0, 0)],
                                         costmap=costmap))
     assert out.status == "following" and out.linear_mps == pytest.approx(0.5 * V_MAX)
-    # facing a wall 0.0085 m from its front (x = 0.10, front at 0.015 + 0.0765): nearer -> blocked
+    # facing a wall 0.0085 m from its front (x = 0.10, front at 0.015 + 0.0765): 0.0035 m to the
+    # margin < 0.1 m -> blocked
     ahead = with_band(empty_costmap(), 0.10, 0.30, LETHAL)
     out = follower().compute(make_input((0.015, 0.0, 0.0), [(0.015, 0), (2.0, 0)], costmap=ahead))
     assert out.status == "blocked"
@@ -389,8 +393,8 @@ def test_on_an_obstacle_blocked_near_one_may_leave():
 def test_blocked_when_the_box_not_the_centre_would_hit_a_corner():
     # A block's corner beside the path: y from 0.10, x from 0.30. The centre drives along
     # y = 0, 0.10 m from it, and never meets it; the box, 0.153 m to each side, does: from
-    # x = 0.30 - 0.01 - 0.0765 = 0.2135. From x = 0.15 only 0.06 m is free: blocked, and the
-    # detail names the body. The same block 0.17 m off (beyond 0.153 + 0.01) is passed.
+    # x = 0.30 - 0.005 - 0.0765 = 0.2185. From x = 0.15 under 0.07 m is free: blocked, and the
+    # detail names the body. The same block 0.20 m off (0.047 m beside the box) is passed.
     costmap = empty_costmap()
     costmap[22:30, 26:36] = LETHAL                    # y in [0.10, 0.50), x in [0.30, 0.80)
     path = [(0.15, 0.0), (2.0, 0.0)]

@@ -17,7 +17,7 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
 6. speed      v = min(v_max, w_max / |kappa|, sqrt(2 a d_goal)) * costmap slowdown, w = kappa v:
               slow in turns, stop at the goal with the robot's acceleration, slow near obstacles.
 7. collision  seed 003's ``is_colliding``, on the arc, with the robot's body: roll (v, w)
-              forward for ``collision_horizon_s``, a pose every ``CHECK_STEP_M``; the first pose
+              forward for ``collision_horizon_s``, a pose every half margin; the first pose
               whose body (the oriented box, control.footprint.BodyCheck) comes within
               ``collision_margin_m`` of an obstacle, or whose centre is on unknown space (if
               ``unknown_is_collision``), caps v so that the horizon ends before it; if less
@@ -30,12 +30,14 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               than the margin may drive on through poses no nearer than it stands (escaping).
 
 Tight corners. The path's corners are where the plan turns in place (a lattice plan's turns). A
-corner where the turning disc clears every obstacle by ``corner_cut_clearance_m`` is cut with
-the pure-pursuit arc; at any other (a narrow place) the robot follows the plan itself: the
-carrot never passes the corner, the robot stops on it (within ``corner_tolerance_m``; v <=
-distance / control period, so one period does not overshoot it), turns in place to the next
-segment's heading (to within ``align_tolerance_rad``, the sweep checked), and drives on. The
-start of the path is such a corner when the robot stands in a narrow place.
+corner where the turning disc clears every obstacle by ``corner_cut_clearance_m``, there and along
+the next ``lookahead_max_m`` of the path, is cut with the pure-pursuit arc; at any other (a narrow place) the robot follows the plan itself: it stops
+on the corner (within ``corner_tolerance_m``; v <= distance / control period, so one period does
+not overshoot it; the carrot runs on along the line into the corner, extended, so the robot
+converges onto that line, and the look-ahead check ends on the corner), turns in place to the next
+segment's heading (to within ``align_tolerance_rad``) where that turn is clear (else it goes on
+with the checked arc), and drives on. The start of the path is such a corner when the robot
+stands in a narrow place.
 
 Turning in place (steps 2, 4, 7, corners) is allowed only where BodyCheck.turn_clear finds the
 turn safe: the turning disc fits, or the box is clear at every yaw of the sweep. The follower
@@ -56,8 +58,6 @@ from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, Cont
 from .footprint import BodyCheck
 
 NO_INFORMATION = 255   # planning.costmap's value, repeated: control must not import planning
-CHECK_STEP_M = 0.005   # look-ahead poses this far apart: half the margin, so a body between
-                       # two clear poses keeps at least half of it
 _TINY = 1e-9
 
 
@@ -94,9 +94,10 @@ class FollowerSettings:
                                          # 4 control periods at full speed
     unknown_is_collision: bool = True    # the centre on unknown space: collision (it may hide a
                                          # wall; the planner keeps to known space anyway)
-    collision_margin_m: float = 0.01     # the body nearer an obstacle's edge than this collides;
-                                         # half the planner's 0.02 m: the robot follows the plan
-                                         # to within about a centimetre
+    collision_margin_m: float = 0.005    # the body nearer an obstacle's edge than this collides
+                                         # (look-ahead poses lie half of it apart); a quarter of
+                                         # the planner's 0.02 m: the robot follows the plan to
+                                         # within a centimetre or two
     # tight corners (see the module)
     corner_cut_clearance_m: float = 0.1  # cut a corner with an arc only where the turning disc
                                          # clears obstacles by this much (an arc strays a few cm)
@@ -278,28 +279,32 @@ class PurePursuit:
                 return ControlOutput(0.0, 0.0, ARRIVED, goal_tuple)
             return self._turn(inp, (x, y, yaw), err, goal_tuple, "the goal's heading")
 
-        # tight corners: stop on one, turn to the next segment, never let the carrot pass one
+        # tight corners: stop on one, turn to the next segment there, drive on
         corner_s, next_dir = self._tight_corner(inp, track, xy)
         if next_dir is not None:
             err = wrap_angle(math.atan2(next_dir[1], next_dir[0]) - yaw)
-            if abs(err) > cfg.align_tolerance_rad:
-                here = (float(x), float(y))
-                return self._turn(inp, (x, y, yaw), err, here, "the next segment's heading")
-        cap_m = corner_s - self._progress_m if corner_s is not None else math.inf
+            if abs(err) > cfg.align_tolerance_rad and self.body.turn_clear(inp, (x, y, yaw), err):
+                return ControlOutput(0.0, self._turn_rate(err), ROTATING, (float(x), float(y)))
+            # (a turn that is not clear: the arc below, checked as ever, or "blocked")
 
-        # 3. carrot at L_d beyond the closest point, not past a tight corner
+        # 3. carrot at L_d beyond the closest point; past a tight corner ahead, on the line of
+        # the segment into it extended (the robot converges onto that line, and stops on the
+        # corner: v <= the distance left / the control period)
+        stop = None if corner_s is None else (corner_s, track.point_at(corner_s),
+                                              track.seg[int(np.searchsorted(track.s, corner_s)) - 1])
+        stop_m = corner_s - self._progress_m if corner_s is not None else math.inf
         v_meas = float(inp.velocity[0]) if _finite_first(inp.velocity) else 0.0
         lookahead_m = min(max(cfg.lookahead_time_s * abs(v_meas), cfg.lookahead_min_m),
-                          cfg.lookahead_max_m, cap_m)
+                          cfg.lookahead_max_m)
         d_goal_m = max(remaining_m, d_goal_xy)
-        v_cap = cap_m / period_s if math.isfinite(cap_m) else math.inf
+        v_cap = stop_m / period_s if math.isfinite(stop_m) else math.inf
 
         # 3-7 with L_d, then (the arc blocked) with L_d halved down to one cell: a nearer carrot
         # hugs the collision-free plan where the arc to a far one cuts a corner.
         blocked = None
         while True:
             out, why = self._toward(inp, track, grid, x, y, yaw, lookahead_m, d_goal_m,
-                                    start_cost, v_cap)
+                                    start_cost, v_cap, stop)
             if out is not None:
                 return out
             blocked = blocked or why
@@ -317,12 +322,18 @@ class PurePursuit:
 
     def _toward(self, inp: ControlInput, track: "_Track", grid: "_Grid", x: float, y: float,
                 yaw: float, lookahead_m: float, d_goal_m: float, start_cost: int,
-                v_cap: float) -> tuple:
+                v_cap: float, stop: Optional[tuple]) -> tuple:
         """Steps 3-7 for one look-ahead distance: (the command, None), or (None, (carrot,
         why blocked)) when less than ``collision_stop_distance_m`` of its arc is free or the
-        turn toward the carrot is not clear."""
+        turn toward the carrot is not clear. ``stop``: (arc length, point, direction of the
+        segment into it) of the tight corner ahead, or None."""
         cfg = self.settings
-        carrot = track.point_at(self._progress_m + lookahead_m)
+        s_carrot = self._progress_m + lookahead_m
+        if stop is not None and s_carrot > stop[0]:     # on the line into the corner, extended
+            along = stop[2] / max(float(np.hypot(*stop[2])), _TINY)
+            carrot = stop[1] + (s_carrot - stop[0]) * along
+        else:
+            carrot = track.point_at(s_carrot)
         carrot_tuple = (float(carrot[0]), float(carrot[1]))
         dx, dy = carrot[0] - x, carrot[1] - y
         dist_m = math.hypot(dx, dy)
@@ -343,6 +354,8 @@ class PurePursuit:
 
         # 7. look-ahead collision check along the arc
         horizon_m = max(v * cfg.collision_horizon_s, cfg.collision_stop_distance_m)
+        if stop is not None:       # it stops on the corner: the poses past it are not checked
+            horizon_m = min(horizon_m, stop[0] - self._progress_m + cfg.corner_tolerance_m)
         free_m, hit_xy, what = self._free_arc(inp, grid, x, y, yaw, kappa, horizon_m, track.goal)
         if free_m is not None:
             if free_m < cfg.collision_stop_distance_m:
@@ -384,20 +397,31 @@ class PurePursuit:
         """(arc length of the next tight corner ahead or None, the direction of the segment
         after the tight corner the robot stands on or None). Corners: the start and every
         interior point; tight: the turning disc does not clear obstacles by
-        ``corner_cut_clearance_m`` there (at the start: where the robot stands)."""
+        ``corner_cut_clearance_m`` at the corner (at the start: where the robot stands) or along
+        the first ``lookahead_max_m`` of the path after it (an arc cut there would enter a
+        narrow place off its line)."""
         cfg = self.settings
-        n = len(track.points)
-        if n < 2:
+        if len(track.points) < 2:
             return None, None
         s = self._progress_m
-        points = track.points[:-1].copy()
-        points[0] = xy
         ahead = track.s[:-1] >= s - cfg.corner_tolerance_m
         ahead[0] = s <= cfg.corner_tolerance_m
         idx = np.flatnonzero(ahead)
         if idx.size == 0:
             return None, None
-        tight = ~self.body.disc_clear(inp, points[idx], cfg.corner_cut_clearance_m)
+        # points every half cell along the first lookahead_max_m of the path after each corner
+        step = 0.5 * float(inp.resolution)
+        n = int(cfg.lookahead_max_m / step) + 1
+        along = track.s[idx][:, None] + step * np.arange(n)[None, :]         # (corners, n)
+        samples = np.stack([np.interp(along, track.s, track.points[:, 0]),
+                            np.interp(along, track.s, track.points[:, 1])], axis=-1)
+        if idx[0] == 0:                     # the start: from where the robot stands
+            samples[0] += (xy - track.points[0]) * (1.0 - np.minimum(along[0] / max(
+                track.seg_len[0], _TINY), 1.0))[:, None]
+        owner = np.repeat(np.arange(idx.size), n)
+        samples = samples.reshape(-1, 2)
+        clear = self.body.disc_clear(inp, samples, cfg.corner_cut_clearance_m)
+        tight = np.bincount(owner, weights=~clear, minlength=idx.size) > 0
         idx = idx[tight]
         if idx.size == 0:
             return None, None
@@ -439,7 +463,7 @@ class PurePursuit:
         """(free arc length before the first colliding pose within ``length_m``, that pose's
         (x, y), what it hits), or (None, None, None) when the arc is free.
 
-        Poses every CHECK_STEP_M along the arc of curvature ``kappa``; poses past the goal are
+        Poses every half ``collision_margin_m`` along the arc of curvature ``kappa``; poses past the goal are
         not checked (the robot stops there). A pose collides when the body comes within
         ``collision_margin_m`` of an obstacle, or (``unknown_is_collision``) its centre is on
         unknown space. A robot already that near may drive on through poses no nearer than
@@ -447,7 +471,7 @@ class PurePursuit:
         them, so it can get out.
         """
         cfg = self.settings
-        ds = max(CHECK_STEP_M, length_m / 1000.0)         # at most 1000 poses
+        ds = max(0.5 * cfg.collision_margin_m, length_m / 1000.0)   # at most 1000 poses
         s = ds * np.arange(0, int(math.ceil(length_m / ds)) + 1)
         half = 0.5 * kappa * s
         chord = s * np.sinc(half / math.pi)                # 2 sin(kappa s / 2) / kappa, exact arc

@@ -13,7 +13,7 @@ here blocks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -74,6 +74,11 @@ def run_ends(path: LatticePath) -> np.ndarray:
     return np.flatnonzero(forward & followed_by_turn)
 
 
+ANCHOR_AHEAD_M = 0.25   # a replan continues the plan from this far ahead of the robot (about
+                        # the follower's shortest look-ahead): a first leg that long points
+                        # along the plan to within a few degrees
+
+
 class Navigation:
     """State: idle -> active -> succeeded | failed (with a reason), or idle again on cancel."""
 
@@ -83,6 +88,10 @@ class Navigation:
         self.lattice = settings.lattice.with_robot(robot)
         self.lattice.validate("lattice")
         self._yaws = np.array([yaw for _, _, yaw in _native.lattice_headings(self.lattice.headings)])
+        # the turning disc as a round robot, with the lattice's turning margin
+        self._disc = replace(robot, footprint_length_m=0.0, footprint_width_m=0.0,
+                             footprint_offset_x_m=0.0)
+        self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
         self.controller = PurePursuit(settings.follower, robot)
         self.map: Optional[MapView] = None
         self.status, self.reason = "idle", ""
@@ -103,6 +112,7 @@ class Navigation:
             self._finish("failed", f"goal ({x}, {y}, {yaw}) is not finite")
             return
         self.goal = (x, y, yaw)
+        self._clear_path()
         self.status, self.reason = "active", ""
         self._need_plan, self._blocked, self._blocked_map = True, 0, None
         self.controller.reset()
@@ -168,11 +178,13 @@ class Navigation:
         return known & footprint_clear(m.occupancy, m.resolution, m.origin, self.robot, poses,
                                        self.lattice)
 
-    def _fit(self, cell: tuple, yaw: Optional[float], headings: int) -> Optional[tuple]:
+    def _fit(self, cell: tuple, yaw: Optional[float], headings: int,
+             turnable: bool = False) -> Optional[tuple]:
         """The pose (x, y, yaw) at ``cell`` where the footprint fits at one of the ``headings``
         lattice headings nearest ``yaw`` (every heading when ``yaw`` is None); failing that, at
         the nearest cell within ``snap_radius_m`` where it fits at some heading (the one nearest
-        ``yaw``). None if there is none."""
+        ``yaw``). ``turnable``: only cells where the turning disc fits too. None if there is
+        none."""
         m = self.map
         order = np.arange(len(self._yaws)) if yaw is None else \
             np.argsort(np.abs(np.remainder(self._yaws - yaw + math.pi, 2 * math.pi) - math.pi),
@@ -186,6 +198,10 @@ class Navigation:
         on = geometry.inside(cells[:, 0], cells[:, 1], m.costmap.shape)
         cells = cells[on]
         cells = cells[m.costmap[cells[:, 0], cells[:, 1]] < INSCRIBED]   # some heading may fit
+        if turnable and len(cells):
+            disc = np.column_stack([m.centre(cells), np.zeros(len(cells))])
+            cells = cells[footprint_clear(m.occupancy, m.resolution, m.origin, self._disc, disc,
+                                          self._disc_settings)]
         for chunk in range(0, len(cells), 64):
             block = cells[chunk:chunk + 64]
             own = chunk == 0 and len(block) and tuple(block[0]) == tuple(cell)
@@ -202,16 +218,67 @@ class Navigation:
                 return float(xy[i, 0]), float(xy[i, 1]), float(yaws[int(np.argmax(fits[i]))])
         return None
 
+    def _anchor(self, pose: tuple) -> Optional[tuple]:
+        """Where a replan starts while the robot follows a plan: the pose of that plan the robot
+        is driving to, ANCHOR_AHEAD_M ahead along it or the end of the current straight run,
+        whichever comes first; the new plan then continues the line the robot is on. (From the
+        robot's own cell a new lattice line would start at that cell's centre, up to half a
+        cell beside the robot, and a gap passed with a 2 cm margin would be blocked to it.)
+        None when there is no plan, the robot is off it, or it no longer fits the map."""
+        P = self.path_poses
+        if not len(P):
+            return None
+        res = self.map.resolution
+        xy = np.array(pose[:2], dtype=float)
+        i = int(np.argmin(np.hypot(P[:, 0] - xy[0], P[:, 1] - xy[1])))
+        if math.hypot(*(P[i, :2] - xy)) > 2.0 * res:
+            return None
+        ahead = ((P[:, 0] - xy[0]) * np.cos(P[:, 2]) + (P[:, 1] - xy[1]) * np.sin(P[:, 2]))
+        ends = np.zeros(len(P), bool)
+        ends[run_ends(self.plan)] = True
+        ok = (np.arange(len(P)) >= i) & (ahead > 0.5 * res) & ((ahead >= ANCHOR_AHEAD_M) | ends)
+        j = np.flatnonzero(ok)
+        if j.size == 0 or not self._poses_clear(P[i:j[0] + 1]).all():
+            return None
+        return tuple(float(v) for v in P[j[0]])
+
+    def _start(self, pose: tuple) -> Optional[tuple]:
+        """The lattice start for the robot at ``pose``: its own cell at the heading nearest its
+        yaw, or the next nearest; else the first cell straight ahead (within snap_radius_m)
+        where one of those fits, which it reaches without turning; else the nearest cell where
+        the footprint fits at all (``_fit``)."""
+        m = self.map
+        x, y, yaw = (float(v) for v in pose[:3])
+        ahead = np.arange(0.0, self.s.snap_radius_m + 1e-9, m.resolution)
+        for d in ahead:
+            cell = m.cell(x + d * math.cos(yaw), y + d * math.sin(yaw))
+            if not m.inside(cell) or m.costmap[cell] >= INSCRIBED:
+                if d > 0.0:
+                    break                     # no further through an obstacle
+                continue
+            order = np.argsort(np.abs(np.remainder(self._yaws - yaw + math.pi, 2 * math.pi)
+                                      - math.pi), kind="stable")[:2]
+            xy = m.centre(np.array([cell]))
+            poses = np.column_stack([np.repeat(xy, 2, axis=0), self._yaws[order]])
+            fits = footprint_clear(m.occupancy, m.resolution, m.origin, self.robot, poses,
+                                   self.lattice)
+            if fits.any():
+                return float(xy[0, 0]), float(xy[0, 1]), float(poses[int(np.argmax(fits)), 2])
+        return self._fit(m.cell(x, y), yaw, headings=0)
+
     def _plan(self, pose: tuple, now_s: float) -> bool:
         m = self.map
         self._planned_at, self._need_plan = now_s, False
-        start = self._fit(m.cell(pose[0], pose[1]), pose[2], headings=2)
+        start = self._anchor(pose) or self._start(pose)
         if start is None:
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
                                           f"({pose[0]:.2f}, {pose[1]:.2f}) where its footprint fits")
         gx, gy, gyaw = self.goal
         goal_cell = m.cell(gx, gy)
-        goal = self._fit(goal_cell, gyaw, headings=len(self._yaws))
+        # A cell where the robot can turn round first: the lattice never reverses, so a goal in a
+        # narrow dead end (a maze's, a door) would leave it no way out.
+        goal = self._fit(goal_cell, gyaw, headings=len(self._yaws), turnable=True) \
+            or self._fit(goal_cell, gyaw, headings=len(self._yaws))
         if goal is None:
             return self._finish("failed", f"goal ({gx:.2f}, {gy:.2f}) is in an obstacle, unknown "
                                           f"space or off the map, with no cell within "
@@ -224,6 +291,12 @@ class Navigation:
         try:
             path = self._lattice(start, goal)
         except PlanningError as exc:
+            # The robot follows a lattice line only to within a centimetre or so; its own cell
+            # may lie just off that line, where the forward-only lattice finds no way on (no
+            # room to turn there). While the plan it follows is still clear, keep to it: the
+            # next replan starts from a lattice pose of it again.
+            if len(self.path_poses) and self._poses_clear(self.path_poses).all():
+                return True
             return self._finish("failed", str(exc))
         self.plan = path
         robot_xy = np.array([[pose[0], pose[1]]])
