@@ -187,11 +187,17 @@ def test_succeeded_marks_success_and_triggers_a_cycle_at_once():
     assert a.cycled                           # the goal ended: a cycle right away
     assert run.ex.book.successes(LEFT_GOAL) == 1
     assert run.lines("explorer: goal (1.03, 1.03) reached")
-    # the map did not change: (20, 20) sees every cell of the left frontier (column 19, at
-    # most 20 cells away), and looking from there did not reveal them; with none left for
-    # another viewpoint to see, it is given up and the right frontier's goal goes out at once
+    # this cycle runs on the map from before the arrival, which cannot show what the robot
+    # sees there yet: the arrival does not count, and the goal is sent again (the robot
+    # stays and looks)
+    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert again.xy == approx_xy(LEFT_GOAL) and again.seq == goal.seq + 1 and again.retries == 0
+    # reached again, and the map still did not change: (20, 20) sees every cell of the left
+    # frontier (column 19, at most 20 cells away) and did not reveal them; with none left
+    # for another viewpoint to see, it is given up and the right frontier's goal goes out
+    a, _ = run.tick(events=[NavEvent(again.seq, "succeeded")])
     (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == goal.seq + 1 and nxt.retries == 0
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == again.seq + 1
     left, right = run.ex.frontiers
     assert not left.reachable and right.reachable
 
@@ -237,11 +243,16 @@ def test_an_arrival_that_does_not_reveal_the_frontier_sends_the_next_viewpoint()
     assert first.xy == approx_xy((1.375, 1.475))                                  # (29, 27)
     run.pose = (1.375, 1.475, 0.0)
     a, _ = run.tick(events=[NavEvent(first.seq, "succeeded")])
+    # the cycle of the arrival runs on the map from before it: the goal stands (sent again)
+    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert a.cycled and again.xy == first.xy
+    run.tick()
+    a, _ = run.tick(events=[NavEvent(again.seq, "succeeded")])
     # the map did not change: the south face, in view of (29, 27), is given up; the north
     # face, which the slab hid, gets its viewpoint in E, (36, 53), looking along the strip
     assert a.cycled
     (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    assert nxt.xy == approx_xy((2.675, 1.825)) and nxt.seq == first.seq + 1      # (36, 53)
+    assert nxt.xy == approx_xy((2.675, 1.825)) and nxt.seq == again.seq + 1      # (36, 53)
     south, north = run.ex.frontiers
     assert not south.reachable and north.reachable and run.ex.goal_available
 

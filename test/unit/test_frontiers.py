@@ -404,11 +404,11 @@ def slab_room():
 
 
 def reached(*cells):
-    """GoalBook.tried() after reaching the centres of ``cells`` (attempt radius 0.4 m)."""
+    """GoalBook.tried after reaching the centres of ``cells`` (attempt radius 0.4 m)."""
     book = GoalBook()
     for i, cell in enumerate(cells):
         book.succeeded(cell_to_xy(cell, RES, (0.0, 0.0)), float(i))
-    return book.tried()
+    return book.tried(now_s=len(cells))
 
 
 def sees(occ, viewpoint, cells, radius=70.0):
@@ -484,7 +484,7 @@ def test_a_blacklisted_goal_gives_way_to_another_viewpoint(burger_costmap_settin
     book = GoalBook()
     book.blacklist(cell_to_xy((29, 27), RES, (0.0, 0.0)), 0.0)
     south, north = detect(occ, RES, (0.0, 0.0), costmap, (10, 35), FrontierSettings(),
-                          tried=book.tried())
+                          tried=book.tried(now_s=1.0))
     assert south.reachable and south.goal_cell == (29, 38)
     assert north.reachable and north.goal_cell == (36, 53)
     assert not book.is_blacklisted(south.goal) and not book.is_blacklisted(north.goal)

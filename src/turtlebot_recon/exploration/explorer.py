@@ -323,7 +323,7 @@ class Explorer:
         costmap = make_costmap(occ, res, self.costmap_settings)
         cell = xy_to_cell(pose[:2], res, origin)
         field = robot_cost_to_come(costmap, cell, res, self.fs.snap_radius_m)
-        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried())
+        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
                       visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1)

@@ -188,12 +188,16 @@ class GoalBook:
         """Every recorded failure as a float (n, 2) array of x, y."""
         return np.asarray(self._failures, dtype=float).reshape(-1, 2)
 
-    def tried(self) -> Tried:
-        """The goals ``frontiers.detect`` looks past: every success (its view is spent; no new
-        viewpoint within attempt_radius_m of it) and every blacklist entry in force (none
-        within blacklist_radius_m)."""
+    def tried(self, now_s: float) -> Tried:
+        """The goals ``frontiers.detect`` looks past at ``now_s``: every success before it (its
+        view is spent; no new viewpoint within attempt_radius_m of it) and every blacklist
+        entry in force (none within blacklist_radius_m). A success counts from the cycles after
+        the one it triggers: that one runs on the map from before the arrival, which does not
+        show yet what the robot sees there (the robot stays and looks, as the goal still
+        stands)."""
         s = self.settings
-        reached = np.asarray([p for p, _ in self._successes], dtype=float).reshape(-1, 2)
+        reached = np.asarray([p for p, t in self._successes if t < now_s],
+                             dtype=float).reshape(-1, 2)
         blacklisted = np.asarray([e.xy for e in self.entries()], dtype=float).reshape(-1, 2)
         discs = np.concatenate([
             np.c_[reached, np.full(len(reached), s.attempt_radius_m)],
