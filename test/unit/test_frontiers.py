@@ -473,23 +473,6 @@ def test_a_frontier_a_reached_goal_did_not_reveal_gets_another_viewpoint(burger_
     assert not south.reachable and not north.reachable
 
 
-def test_a_blacklisted_goal_gives_way_to_another_viewpoint(burger_costmap_settings):
-    # The navigator failed at (29, 27) and the goal was blacklisted (0.5 m disc). Nothing
-    # was seen from there, so every cell of both faces still counts. The south face's next
-    # viewpoint is on row 29 (1 cell below it, cost 105), outside the disc: more than 10
-    # cells from col 27, i.e. col <= 16 or >= 38; nearest its centroid (30, 27.5) is col 38.
-    # The north face's is (36, 53), as after an arrival.
-    occ = slab_room()
-    costmap = make_costmap(occ, RES, burger_costmap_settings)
-    book = GoalBook()
-    book.blacklist(cell_to_xy((29, 27), RES, (0.0, 0.0)), 0.0)
-    south, north = detect(occ, RES, (0.0, 0.0), costmap, (10, 35), FrontierSettings(),
-                          tried=book.tried(now_s=1.0))
-    assert south.reachable and south.goal_cell == (29, 38)
-    assert north.reachable and north.goal_cell == (36, 53)
-    assert not book.is_blacklisted(south.goal) and not book.is_blacklisted(north.goal)
-
-
 @pytest.mark.parametrize("max_cost", [128, 252])
 def test_viewpoints_run_out(burger_costmap_settings, max_cost):
     # Reach each viewpoint of the slot's frontier in turn on an unchanging map (the worst

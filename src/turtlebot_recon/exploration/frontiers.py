@@ -22,19 +22,19 @@ crosses unknown space (a planner with unknown_cost >= 0, as Nav2's allow_unknown
 004).
 
 A goal is a viewpoint: a cell the robot stands on and reaches, from which it looks at the
-frontier. Where the snap's cell lies within a tried disc (a goal reached before, or
-blacklisted), and, once no frontier is left that the snap finds a goal for, where the snap
-finds none, the goal is the nearest cell that sees a frontier cell the reached goals did not,
-by line of sight over known-free cells within ``sensor_range_m`` (``viewpoints``): a
-frontier that an arrival did not reveal (clutter hid it) gets another viewpoint, and one
-seen through a gap narrower than the robot gets a goal in front of the gap. Looking through
-gaps comes last because driving to the frontiers beside reachable space grows that space,
-and the passes on the way show much of what lies behind the gaps (chased in tour order,
-the gaps cost recon about 20 % more driving in the house and the arena). A frontier without
-a goal comes back with ``reachable=False`` (not dropped, so that callers can report it);
-when no frontier has a goal, none is seen from anywhere the robot reaches: nothing is left
-to see. Gain is the number of unknown cells a lidar at the goal cell would see (C++ ray
-casting, ``_native.visible_unknown``).
+frontier. Where the snap's cell lies within a tried disc (near a goal reached before), and,
+once no frontier is left that the snap finds a goal for, where the snap finds none, the goal
+is the nearest cell that sees a frontier cell the reached goals did not, by line of sight
+over known-free cells within ``sensor_range_m`` (``viewpoints``): a frontier that an arrival
+did not reveal (clutter hid it) gets another viewpoint, and one seen through a gap narrower
+than the robot gets a goal in front of the gap. Looking through gaps comes last because
+driving to the frontiers beside reachable space grows that space, and the passes on the way
+show much of what lies behind the gaps (chased in tour order, the gaps cost recon about
+20 % more driving in the house and the arena). A frontier without a goal comes back with
+``reachable=False`` (not dropped, so that callers can report it); when no frontier has a
+goal, none is seen from anywhere the robot reaches: nothing is left to see. Gain is the
+number of unknown cells a lidar at the goal cell would see (C++ ray casting,
+``_native.visible_unknown``).
 
 Grids are nav_msgs/OccupancyGrid order: ``(rows, cols)``, row 0 at the smallest y; int8
 occupancy -1 unknown, 0..100; cell (r, c) has its centre at origin + ((c + 0.5) res,
@@ -163,8 +163,8 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     ``dijkstra(costmap, robot_cell)``, computed once here. If the robot's cell is impassable
     (inscribed, when it brushes a wall), that field starts from the nearest passable cell
     within ``snap_radius_m``; with none, every frontier is unreachable. tried: the goals
-    reached and blacklisted so far (``GoalBook.tried``): a snapped goal in a tried disc gives
-    way to a viewpoint that sees what the tried goals did not (``viewpoints``).
+    reached so far (``GoalBook.tried``): a snapped goal in a tried disc gives way to a
+    viewpoint that sees what the reached goals did not (``viewpoints``).
     """
     occupancy = np.asarray(occupancy)
     if occupancy.ndim != 2:

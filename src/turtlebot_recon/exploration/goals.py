@@ -190,19 +190,13 @@ class GoalBook:
 
     def tried(self, now_s: float) -> Tried:
         """The goals ``frontiers.detect`` looks past at ``now_s``: every success before it (its
-        view is spent; no new viewpoint within attempt_radius_m of it) and every blacklist
-        entry in force (none within blacklist_radius_m). A success counts from the cycles after
-        the one it triggers: that one runs on the map from before the arrival, which does not
-        show yet what the robot sees there (the robot stays and looks, as the goal still
-        stands)."""
-        s = self.settings
-        reached = np.asarray([p for p, t in self._successes if t < now_s],
-                             dtype=float).reshape(-1, 2)
-        blacklisted = np.asarray([e.xy for e in self.entries()], dtype=float).reshape(-1, 2)
-        discs = np.concatenate([
-            np.c_[reached, np.full(len(reached), s.attempt_radius_m)],
-            np.c_[blacklisted, np.full(len(blacklisted), s.blacklist_radius_m)]])
-        return Tried(reached=reached, discs=discs)
+        view is spent, and no new viewpoint lies within attempt_radius_m of it). A success
+        counts from the cycles after the one it triggers: that one runs on the map from before
+        the arrival, which does not show yet what the robot sees there (the goal stands, and
+        the robot looks)."""
+        reached = [p for p, t in self._successes if t < now_s]
+        return Tried(np.asarray(reached, dtype=float).reshape(-1, 2),
+                     self.settings.attempt_radius_m)
 
     def attempt_weight(self, xy: Point, decrement: float = 0.2, floor: float = 0.01,
                        radius_m: Optional[float] = None) -> float:

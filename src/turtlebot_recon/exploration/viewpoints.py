@@ -18,9 +18,9 @@ the goal comes from this module instead.
    outward, all of its cells in one call, so the result is every cell that sees some of
    them. (The reverse of the lidar's rays: the same lines up to Bresenham's rounding.)
 3. Candidates: cells that see a surviving cell, reachable (finite cost-to-come), outside
-   every tried disc (around reached goals and blacklisted ones: a new viewpoint must look
-   from a place not yet tried), of cost <= ``max_cost`` (if none is, any cost below
-   inscribed: the robot turns in place safely on any passable cell).
+   every tried disc (within ``Tried.radius_m`` of a reached goal: a new viewpoint looks from
+   a place not yet tried), of cost <= ``max_cost`` (if none is, any cost below inscribed:
+   the robot turns in place safely on any passable cell).
 4. Choice: the candidate nearest the surviving cells (a lidar sees best from near), then
    nearest their centroid (the middle of a straight frontier rather than its end), then the
    first in raster order. No candidate: the frontier is given up.
@@ -48,17 +48,14 @@ Window = Tuple[slice, slice]
 
 @dataclass(frozen=True, eq=False)
 class Tried:
-    """Goals already tried, in map-frame metres (``GoalBook.tried`` builds it)."""
+    """The goals the robot reached, in map-frame metres (``GoalBook.tried`` builds it)."""
     reached: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # float (n, 2): x, y
-                                                                          # of reached goals
-    discs: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))    # float (m, 3): x, y,
-                                                                          # radius_m; no goal
-                                                                          # inside
+    radius_m: float = 0.4                  # a tried disc: no new viewpoint this close to one
 
     def covers(self, xy: Sequence[float]) -> bool:
-        """Whether ``xy`` lies in a tried disc (within its radius, inclusive)."""
-        d = self.discs
-        return bool(np.any(np.hypot(d[:, 0] - xy[0], d[:, 1] - xy[1]) <= d[:, 2] + 1e-9))
+        """Whether ``xy`` lies in a tried disc (within radius_m of a reached goal, inclusive)."""
+        r = self.reached
+        return bool(np.any(np.hypot(r[:, 0] - xy[0], r[:, 1] - xy[1]) <= self.radius_m + 1e-9))
 
 
 class Viewpoints:
@@ -142,9 +139,9 @@ class Viewpoints:
         """Bool (rows, cols): cells whose centre lies in a tried disc (each disc marked over
         its bounding box only)."""
         out = np.zeros(self.free.shape, dtype=bool)
-        for x, y, radius in self.tried.discs:
-            k = int(math.ceil(radius / self.resolution)) + 1
-            r, c = points_to_cells(np.array([x, y]), self.resolution, self.origin)
+        radius = self.tried.radius_m
+        k = int(math.ceil(radius / self.resolution)) + 1
+        for (x, y), (r, c) in zip(self.tried.reached, self.reached):
             rows = slice(max(int(r) - k, 0), max(int(r) + k + 1, 0))
             cols = slice(max(int(c) - k, 0), max(int(c) + k + 1, 0))
             box = np.indices(out[rows, cols].shape).transpose(1, 2, 0) + (rows.start, cols.start)
