@@ -19,9 +19,9 @@ Cell = Tuple[int, int]
 
 
 def reachable_only(frontiers: Sequence[Frontier]) -> List[Frontier]:
-    """The clusters the frontier search found a reachable goal for: one that no cell the
-    robot reaches sees (given up) is never chased, whatever point a strategy would pick in
-    it."""
+    """The clusters the frontier search found a goal for (``Frontier.reachable``): the others
+    (given up, or waiting behind a gap) are never chased, whatever point a strategy would
+    pick in them."""
     return [f for f in frontiers if f.reachable]
 
 
