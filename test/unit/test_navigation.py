@@ -220,3 +220,23 @@ def test_turns_in_place_only_where_the_disc_fits():
     # in-place turning where the disc does not fit: alignment only (w x 0.1 s per period)
     assert sum(abs(w) * 0.1 for p, (v, w) in commands
                if v == 0.0 and disc_clearance(WAFFLE, occ, [p[:2]])[0] == 0.0) < 0.1
+
+
+def test_backs_out_of_a_dead_end_it_cannot_turn_in():
+    # A 0.45 m dead-end corridor (x in [2.0, 3.0), y in [1.3, 1.75)) off the room's east wall
+    # (the room ends at x = 1.9 here): the box fits it, the turning disc does not. The robot
+    # stands in it facing the dead end; the goal is back in the room. The lattice never
+    # reverses, so no forward plan exists; from the opposite heading one does, whose first
+    # straight run leads out to where the disc fits: the robot backs along it (-0.1 m/s, body
+    # checked), then turns and drives to the goal, never nearer than 5 mm to a wall.
+    occ = room()
+    occ[:, 38:] = 100
+    occ[26:35, 38:60] = 0                     # y in [1.30, 1.75), x in [1.9, 3.0)
+    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(1.0, 1.0)
+    poses, commands = drive_robot(nav, WAFFLE, occ, (2.6, 1.525, 0.0), 90.0)
+    assert nav.status == "succeeded", nav.reason
+    assert any(v < 0.0 for _, (v, _) in commands)                    # it backed out
+    assert all(v >= -0.1 - 1e-9 for _, (v, _) in commands)
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005

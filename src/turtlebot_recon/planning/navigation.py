@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import _native, geometry
 from ..config import positive, require
-from ..control import ControlInput, FollowerSettings, PurePursuit
+from ..control import BodyCheck, ControlInput, FollowerSettings, PurePursuit
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (LatticePath, LatticeSettings, footprint_clear, footprint_costmap,
@@ -38,11 +38,14 @@ class NavigationSettings:
                                          # (one report per map counts): fail
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
+    reverse_speed_mps: float = 0.1       # backing straight out of a place the robot cannot turn in
+                                         # (the lattice never reverses), to where it can
     lattice: LatticeSettings = field(default_factory=LatticeSettings)
     follower: FollowerSettings = field(default_factory=FollowerSettings)
 
     def validate(self, src: str) -> None:
-        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
+        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m",
+                 "reverse_speed_mps")
         require(self.max_blocked_replans >= 1, src, "max_blocked_replans", "must be >= 1")
 
 
@@ -93,6 +96,8 @@ class Navigation:
                              footprint_offset_x_m=0.0)
         self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
         self.controller = PurePursuit(settings.follower, robot)
+        self.body = BodyCheck(robot, settings.follower.collision_margin_m)
+        self.backing: Optional[np.ndarray] = None     # (x, y) to back straight out to, or None
         self.map: Optional[MapView] = None
         self.status, self.reason = "idle", ""
         self.goal: Optional[tuple] = None            # (x, y, yaw or None)
@@ -138,9 +143,13 @@ class Navigation:
         """(v m/s, w rad/s) for this control period; updates status/reason."""
         if self.status != "active" or self.map is None:
             return 0.0, 0.0
+        if self.backing is not None:
+            return self._back(pose)
         if self._need_plan or now_s - self._planned_at >= self.s.replan_period_s:
             if not self._plan(pose, now_s):
                 return 0.0, 0.0
+            if self.backing is not None:
+                return self._back(pose)
         m = self.map
         out = self.controller.compute(ControlInput(
             now_s=now_s, pose=pose, velocity=velocity, path=self.path_xy, goal_yaw=self.goal_yaw,
@@ -297,6 +306,8 @@ class Navigation:
             # next replan starts from a lattice pose of it again.
             if len(self.path_poses) and self._poses_clear(self.path_poses).all():
                 return True
+            if self._back_out(pose, start):
+                return True
             return self._finish("failed", str(exc))
         self.plan = path
         robot_xy = np.array([[pose[0], pose[1]]])
@@ -310,6 +321,47 @@ class Navigation:
         self.path_poses = path.poses
         return True
 
+    def _back_out(self, pose: tuple, start: tuple) -> bool:
+        """Trapped: no forward way from ``start`` (a dead end, a door, too narrow to turn). If
+        the lattice finds a way from the opposite heading there, its first straight run is the
+        way out backwards: back along it (``backing``) to where it turns, then plan again."""
+        m = self.map
+        back = (start[0], start[1], start[2] + math.pi)
+        try:
+            path = plan_lattice(m.occupancy, m.resolution, m.origin, self.robot, back,
+                                self.goal[:2], self.lattice)
+        except PlanningError:
+            return False
+        ends = run_ends(path)
+        if ends.size == 0 or path.turned[1:ends[0] + 1].any():
+            return False
+        self._clear_path()
+        self.backing = path.poses[ends[0], :2].copy()
+        return True
+
+    def _back(self, pose: tuple) -> tuple:
+        """One period of backing straight out (heading kept): (-reverse_speed_mps, 0) while the
+        body stays clear behind, until level with ``backing``; then plan again."""
+        m = self.map
+        x, y, yaw = (float(v) for v in pose[:3])
+        to_go = -((self.backing[0] - x) * math.cos(yaw) + (self.backing[1] - y) * math.sin(yaw))
+        if to_go <= 0.01:
+            self.backing, self._need_plan = None, True
+            return 0.0, 0.0
+        margin = self.s.follower.collision_margin_m
+        d = np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
+        poses = np.column_stack([x - d * math.cos(yaw), y - d * math.sin(yaw), np.full(len(d), yaw)])
+        inp = ControlInput(now_s=0.0, pose=pose, velocity=(0.0, 0.0), path=np.zeros((0, 2)),
+                           goal_yaw=None, occupancy=m.occupancy, costmap=m.costmap,
+                           resolution=m.resolution, origin=m.origin)
+        clearance = self.body.clearance(inp, poses, margin)
+        if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
+            self.backing = None
+            self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): no way on forward, and "
+                                   f"backing out would hit an obstacle")
+            return 0.0, 0.0
+        return -min(self.s.reverse_speed_mps, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
+
     def _lattice(self, start: tuple, goal: tuple) -> LatticePath:
         """The lattice plan start -> goal, at the goal's yaw if it is pursued and reachable."""
         m = self.map
@@ -322,6 +374,7 @@ class Navigation:
         return plan_lattice(*args)
 
     def _clear_path(self) -> None:
+        self.backing = None
         self.path_xy = np.zeros((0, 2))
         self.path_poses = np.zeros((0, 3))
         self.plan = None
