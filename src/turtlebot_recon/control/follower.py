@@ -29,15 +29,16 @@ One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
               The robot's centre on an obstacle cell is "blocked" too. A robot already nearer
               than the margin may drive on through poses no nearer than it stands (escaping).
 
-Tight corners. The path's corners are where the plan turns in place (a lattice plan's turns). A
-corner where the turning disc clears every obstacle by ``corner_cut_clearance_m``, there and along
-the next ``lookahead_max_m`` of the path, is cut with the pure-pursuit arc; at any other (a narrow place) the robot follows the plan itself: it stops
-on the corner (within ``corner_tolerance_m``; v <= distance / control period, so one period does
-not overshoot it; the carrot runs on along the line into the corner, extended, so the robot
-converges onto that line, and the look-ahead check ends on the corner), turns in place to the next
-segment's heading (to within ``align_tolerance_rad``) where that turn is clear (else it goes on
-with the checked arc), and drives on. The start of the path is such a corner when the robot
-stands in a narrow place.
+Tight corners. The path's corners are where the plan turns in place (a lattice plan's turns).
+A corner where the turning disc clears every obstacle by ``corner_cut_clearance_m``, there and
+along the next ``lookahead_max_m`` of the path, is cut with the pure-pursuit arc. At any other
+(a narrow place) the robot follows the plan itself: it stops on the corner (within
+``corner_tolerance_m``; v <= distance / control period, so one period does not overshoot it;
+the carrot runs on along the line into the corner, extended, so the robot converges onto that
+line, and the look-ahead check ends on the corner), turns in place to the next segment's heading
+(to within ``align_tolerance_rad``) where that turn is clear (else it goes on with the checked
+arc), and drives on. The start of the path is such a corner when the robot stands in a narrow
+place.
 
 Turning in place (steps 2, 4, 7, corners) is allowed only where BodyCheck.turn_clear finds the
 turn safe: the turning disc fits, or the box is clear at every yaw of the sweep. The follower

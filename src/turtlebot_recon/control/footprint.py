@@ -35,7 +35,8 @@ SWEEP_EXTRA_M = 0.005                # ...so the sweep keeps this much more than
 @dataclass(frozen=True)
 class BodyCheck:
     robot: RobotSpec
-    margin_m: float = 0.01            # body to obstacle edge below which a pose collides
+    margin_m: float = 0.005           # body to obstacle edge below which a pose collides
+                                      # (FollowerSettings.collision_margin_m)
     occupied_threshold: int = 65      # occupancy (0..100) >= this is an obstacle (map_server)
 
     def _args(self, round_body: bool) -> dict:
