@@ -73,12 +73,17 @@ class Viewpoints:
     def __init__(self, occupancy: np.ndarray, costmap: np.ndarray, cost_to_come: np.ndarray,
                  frontier: np.ndarray, resolution: float, origin: Sequence[float], tried: Tried,
                  range_cells: float, beams: int, free_threshold: int, max_cost: int):
-        self.free = (occupancy >= 0) & (occupancy <= free_threshold)
+        self.occupancy, self.free_threshold = occupancy, free_threshold
         self.frontier, self.costmap, self.cost_to_come = frontier, costmap, cost_to_come
         self.resolution, self.origin, self.tried = resolution, origin, tried
         self.range_cells, self.beams, self.max_cost = range_cells, beams, max_cost
         rows, cols = points_to_cells(tried.reached, resolution, origin)
         self.reached = np.stack([rows, cols], axis=1).reshape(-1, 2)
+
+    @cached_property
+    def free(self) -> np.ndarray:
+        """Bool (rows, cols): known-free cells (computed at the first search of a detection)."""
+        return (self.occupancy >= 0) & (self.occupancy <= self.free_threshold)
 
     def find(self, cells: np.ndarray) -> Optional[Cell]:
         """The viewpoint of the frontier made of ``cells`` (int (n, 2)), or None: steps 1-4
@@ -115,7 +120,7 @@ class Viewpoints:
         """The part of the grid within range of the cells (their bounding box grown by the
         range): every cell that can see one of them, and every reached goal that can."""
         k = int(math.ceil(self.range_cells))
-        rows, cols = self.free.shape
+        rows, cols = self.occupancy.shape
         r0, c0 = np.maximum(cells.min(axis=0) - k, 0)
         r1, c1 = np.minimum(cells.max(axis=0) + k + 1, (rows, cols))
         return (slice(int(r0), int(r1)), slice(int(c0), int(c1))), np.array([r0, c0])
@@ -138,7 +143,7 @@ class Viewpoints:
     def in_discs(self) -> np.ndarray:
         """Bool (rows, cols): cells whose centre lies in a tried disc (each disc marked over
         its bounding box only)."""
-        out = np.zeros(self.free.shape, dtype=bool)
+        out = np.zeros(self.occupancy.shape, dtype=bool)
         radius = self.tried.radius_m
         k = int(math.ceil(radius / self.resolution)) + 1
         for (x, y), (r, c) in zip(self.tried.reached, self.reached):
