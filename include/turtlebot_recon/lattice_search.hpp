@@ -125,10 +125,21 @@ class LatticeSearch {
 
   const std::vector<LatticeHeading>& headings() const { return headings_; }
 
-  // The graded costs the search reads (header comment), row-major (rows, cols) into `out`.
+  // The graded costs of the header comment, row-major (rows, cols) into `out`, with 253 exact:
+  // no heading's pose fits the cell (the search itself needs and uses only the cheaper bound,
+  // the nearest obstacle inside the box's inscribed disc).
   void costmap(std::uint8_t* out) const {
-    for (int r = 0; r < rows_; ++r)
-      std::copy_n(&cost_[padded({r, 0})], cols_, out + static_cast<size_t>(r) * cols_);
+    for (int r = 0; r < rows_; ++r) {
+      std::uint8_t* row = out + static_cast<size_t>(r) * cols_;
+      std::copy_n(&cost_[padded({r, 0})], cols_, row);
+      for (int c = 0; c < cols_; ++c) {
+        if (row[c] >= kInscribedObstacle) continue;
+        const int i = padded({r, c});
+        bool fits = false;
+        for (int k = 0; k < K_ && !fits; ++k) fits = pose_[k].clear(obstacle_.data(), i, d2_[i]);
+        if (!fits) row[c] = kInscribedObstacle;
+      }
+    }
   }
 
   // The cheapest lattice path from (start, start_heading) to the goal cell at goal_heading, or

@@ -205,9 +205,9 @@ void register_lattice(py::module_& m) {
         py::arg("cost_scaling_factor") = 5.0, py::arg("occupied_threshold") = 65,
         py::arg("unknown_is_obstacle") = false,
         "The graded costmap plan_lattice reads (uint8, Nav2 convention): 254 obstacle, 255 unknown,\n"
-        "253 where no heading of the footprint fits (the nearest obstacle edge nearer than the body's\n"
-        "inscribed radius about base_footprint + margin_m), 252 exp(-k (d - r_in)) out to\n"
-        "inflation_m beyond, d to the obstacle's edge, 0 further.");
+        "253 where no lattice heading of the footprint fits (exact; always where the nearest obstacle\n"
+        "edge is nearer than the body's inscribed radius about base_footprint + margin_m),\n"
+        "252 exp(-k (d - r_in)) out to inflation_m beyond, d to the obstacle's edge, 0 further.");
   m.def("footprint_clear", &py_footprint_clear, py::arg("occupancy"), py::arg("resolution"),
         py::arg("origin"), py::arg("poses"), py::arg("footprint_length_m") = 0.0,
         py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,

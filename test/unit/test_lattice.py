@@ -253,6 +253,24 @@ def test_footprint_costmap_values():
     assert cost[0, 0] == 255 and cost.dtype == np.uint8 and cost.shape == occ.shape
 
 
+def test_footprint_costmap_253_exactly_where_no_heading_fits():
+    # A 0.25 m (5-cell) slot: its middle cell lies 0.125 m from both sides, beyond the box's
+    # least reach (0.0965 m with the margin), yet the box is 0.281 x 0.306 m and fits at no
+    # heading: 253 all along it. In a 0.40 m slot the box fits along it: below 253. Everywhere,
+    # < 253 exactly where footprint_clear finds some lattice heading's pose clear.
+    occ = np.full((40, 60), 100, np.int8)
+    occ[5:10, 5:55] = 0                   # 0.25 m high, 2.5 m long
+    occ[20:28, 5:55] = 0                  # 0.40 m
+    settings = LatticeSettings.for_robot(WAFFLE)
+    cost = footprint_costmap(occ, RES, WAFFLE, settings)
+    assert (cost[5:10, 5:55] >= 253).all()
+    assert (cost[23:25, 10:50] < 253).all()
+    cells = np.argwhere(occ == 0)
+    poses = np.array([centre(r, c, yaw) for r, c in cells for _, _, yaw in HEADINGS])
+    fits = footprint_clear(occ, RES, ORIGIN, WAFFLE, poses, settings).reshape(len(cells), 16)
+    assert np.array_equal(cost[cells[:, 0], cells[:, 1]] < 253, fits.any(axis=1))
+
+
 # ---------------------------------------------------------------- gaps
 
 @pytest.mark.parametrize("gap_cells, passes", [(8, True), (7, True), (6, False)])

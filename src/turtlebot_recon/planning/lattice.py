@@ -132,7 +132,8 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
 def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec,
                       settings: LatticeSettings) -> np.ndarray:
     """The graded uint8 costmap ``plan_lattice`` reads: 254 obstacle, 255 unknown, 253 where no
-    heading of the footprint fits, graded below that (the costmap convention, for the box)."""
+    heading of the footprint fits (exactly: below 253 some lattice heading's pose is clear),
+    graded below that (the costmap convention, for the box)."""
     settings.validate("LatticeSettings")
     return _native.footprint_costmap(
         occupancy, resolution, **footprint_args(robot), margin_m=settings.margin_m,
