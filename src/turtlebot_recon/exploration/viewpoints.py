@@ -9,9 +9,10 @@ the goal comes from this module instead.
 
 1. Spent cells. A goal the robot reached has spent its view: a frontier cell that a ray
    from it reaches and that is still unknown is not revealed by looking from there again
-   (the clutter hid it from the real lidar, or it lies between two beams; if the map has
-   simply not caught up with the arrival yet, the frontier is gone with the next map). The
-   frontier's surviving cells are its cells less the spent ones.
+   (it lies between two beams, or at the edge of the range; if the map has simply not
+   caught up with the arrival yet, the frontier is gone with the next map). The frontier's
+   surviving cells are its cells less the spent ones: those clutter hid from every reached
+   goal.
 2. Sight. A ray runs from a surviving cell over known-free cells (occupied and unknown
    cells stop it) within ``sensor_range_m``: the rays of the information gain
    (``_native.visible_cells``, ``gain_beams`` Bresenham rays), cast from the frontier
