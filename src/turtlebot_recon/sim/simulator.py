@@ -413,7 +413,7 @@ class Simulator:
         if contact is not None and contact[0] < -PENETRATION_TOL_M:
             pb.removeBody(body, physicsClientId=self.client)
             raise ValueError(f"add_box: ({x0:.3f}, {y0:.3f})-({x1:.3f}, {y1:.3f}) overlaps the robot")
-        w, res = self.world, self.world.resolution
+        w = self.world
         free = w.free.copy()
         rows, cols = free.shape
         r0, c0 = w.cell(x0, y0)
