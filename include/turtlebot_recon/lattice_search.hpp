@@ -7,9 +7,11 @@
 //   forward  one lattice vector along the heading ((1,0), (2,1), (1,1), (1,2), ... for 16):
 //            valid when the box swept along it, padded by margin_m, is clear of obstacle cells
 //            and the cells the centre crosses are known (never reverses);
-//   turn     in place to the next heading either way: valid where the turning region is clear,
-//            the circumscribed disc (radius + turn_margin_m) and every padded pose. A round
-//            robot's body is its disc, so it turns wherever it stands.
+//   turn     in place to the next heading either way: valid where the circumscribed disc
+//            (radius + turn_margin_m) and every padded pose are clear (it could turn all the
+//            way round there), or else where the box swept between the two headings, padded
+//            by margin_m, is clear (a partial turn: a box squares up in a corridor too narrow
+//            for its disc). A round robot's body is its disc, so it turns wherever it stands.
 // Costs (metres):
 //   forward  L * (1 + cost_weight * mean of the graded costs of the cells entered / 252), the
 //            cost model of grid_search.hpp (one cell entered on a (1,0) or (1,1) move);
@@ -79,6 +81,12 @@ inline void validate(const LatticeParams& p) {
 struct LatticeState {
   int row, col, heading;
   bool turned;  // reached from the previous state by turning in place (false for the start)
+};
+
+struct LatticeSeed {  // a start state of cost_to_come and what reaching it costs
+  Cell cell;
+  int heading;
+  double cost_m;
 };
 
 struct LatticePath {
@@ -159,10 +167,114 @@ class LatticeSearch {
     return path;
   }
 
+  // Where the robot can get to: the cheapest lattice cost (m, as plan() counts it) from the
+  // seed states to every cell at its cheapest heading, row-major (rows, cols) into `out`; +inf
+  // where no state of the cell is reachable. A Dijkstra over the same moves as plan() (no
+  // goal, no heuristic), so a cell is finite exactly when plan() finds a path to it at some
+  // heading. Seeds off the grid or whose pose collides are skipped. Call once per object.
+  void cost_to_come(const std::vector<LatticeSeed>& seeds, float* out) {
+    std::fill_n(out, static_cast<size_t>(rows_) * cols_, std::numeric_limits<float>::infinity());
+    OpenList open([this](std::int32_t s) { return is_closed(s); });
+    auto open_state = [&](int s, double g) {
+      const int cell = s / K_, k = s % K_;
+      if ((closed_[cell] >> k) & 1) return;
+      if (((reached_[cell] >> k) & 1) && g >= g_[s]) return;
+      reached_[cell] |= 1u << k;
+      g_[s] = g;
+      open.push(g, s);
+    };
+    for (const LatticeSeed& seed : seeds) {
+      const Cell c = seed.cell;
+      if (seed.heading < 0 || seed.heading >= K_ || !(seed.cost_m >= 0)) continue;
+      if (!fits(c, seed.heading)) continue;
+      open_state(padded(c) * K_ + seed.heading, seed.cost_m);
+    }
+    while (!open.empty()) {
+      const std::int32_t s = open.pop();
+      if (is_closed(s)) continue;
+      const int cell = s / K_, k = s % K_;
+      closed_[cell] |= 1u << k;
+      const double g = g_[s];
+      const Cell c = unpadded(cell);
+      float& best = out[static_cast<size_t>(c.row) * cols_ + c.col];
+      best = std::min(best, static_cast<float>(g));
+      if (forward_clear(cell, k)) open_state((cell + step_[k]) * K_ + k, g + forward_cost(cell, k));
+      if (turn_ok(cell, k, 0)) open_state(cell * K_ + (k + 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][0]);
+      if (turn_ok(cell, k, 1))
+        open_state(cell * K_ + (k + K_ - 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][1]);
+    }
+  }
+
+  // cost_to_come from a robot at cell `start` with yaw `yaw` (rad), starting as the navigator
+  // does: where the turning disc fits at `start`, at every heading that fits there (each
+  // costing the turn from `yaw`); else at the heading nearest `yaw` there, or the next nearest,
+  // and its opposite (the robot backs out along its line); failing a forward one, at the first
+  // cell straight ahead within snap_cells where one of those two headings fits (costing the
+  // distance). When none of those fits (the robot brushes an obstacle), the nearest cells
+  // within snap_cells where some heading fits, at each heading that does. Returns false (all
+  // +inf) when there is none.
+  bool reach_from(Cell start, double yaw, int snap_cells, float* out) {
+    std::vector<LatticeSeed> seeds;
+    yaw = std::remainder(yaw, 2 * kPi);
+    std::vector<int> order(K_);  // headings by angle to yaw
+    for (int k = 0; k < K_; ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return angle_between(headings_[a].yaw_rad, yaw) < angle_between(headings_[b].yaw_rad, yaw);
+    });
+    bool forward = false;
+    if (fits(start, -1) && turn_clear(padded(start))) {
+      for (int k = 0; k < K_; ++k)
+        if (fits(start, k))
+          seeds.push_back({start, k, p_.turn_cost_m_per_rad * angle_between(headings_[k].yaw_rad, yaw)});
+      forward = true;
+    } else {
+      for (int n = 0; n < 2 && !forward; ++n) {
+        const int k = order[n], back = (k + K_ / 2) % K_;
+        if (fits(start, k)) {
+          seeds.push_back({start, k, 0.0});
+          forward = true;
+        }
+        if (fits(start, back)) seeds.push_back({start, back, 0.0});
+      }
+    }
+    for (int d = 1; d <= snap_cells && !forward; ++d) {  // straight ahead while some heading fits
+      const Cell c{start.row + static_cast<int>(std::lround(d * std::sin(yaw))),
+                   start.col + static_cast<int>(std::lround(d * std::cos(yaw)))};
+      if (!fits(c, -1)) break;
+      for (int n = 0; n < 2 && !forward; ++n)
+        if (fits(c, order[n])) {
+          seeds.push_back({c, order[n], d * p_.resolution_m});
+          forward = true;
+        }
+    }
+    for (int d2 = 1; seeds.empty() && d2 <= snap_cells * snap_cells; ++d2) {
+      for (int dr = -snap_cells; dr <= snap_cells; ++dr)
+        for (int dc = -snap_cells; dc <= snap_cells; ++dc) {
+          if (dr * dr + dc * dc != d2) continue;
+          const Cell c{start.row + dr, start.col + dc};
+          for (int k = 0; k < K_; ++k)
+            if (fits(c, k)) seeds.push_back({c, k, std::sqrt(d2) * p_.resolution_m});
+        }
+    }
+    cost_to_come(seeds, out);
+    return !seeds.empty();
+  }
+
  private:
   enum Action : std::uint8_t { kStart, kForward, kTurnLeft, kTurnRight };
 
   int padded(Cell c) const { return (c.row + pad_) * stride_ + c.col + pad_; }
+
+  // Whether the footprint fits at `c`, at heading k (k < 0: at some heading).
+  bool fits(Cell c, int k) const {
+    if (c.row < 0 || c.row >= rows_ || c.col < 0 || c.col >= cols_) return false;
+    const int i = padded(c);
+    if (obstacle_[i] || !known_[i]) return false;
+    if (k >= 0) return pose_[k].clear(obstacle_.data(), i, d2_[i]);
+    for (int h = 0; h < K_; ++h)
+      if (pose_[h].clear(obstacle_.data(), i, d2_[i])) return true;
+    return false;
+  }
   Cell unpadded(int i) const { return {i / stride_ - pad_, i % stride_ - pad_}; }
 
   // ---------------------------------------------------------------- set-up
@@ -201,6 +313,24 @@ class LatticeSearch {
         spin.push_back({box, m});
       }
       turn_ = GridShape(spin, 0.0, res, stride_);
+      // The box swept from heading k to each neighbour: its poses every <= kSweepStepRad,
+      // padded by margin_m (the union misses only slivers r (1 - cos(step / 2)) < 0.3 mm deep
+      // at the corners' arcs, r <= 0.3 m).
+      for (int k = 0; k < K_; ++k) {
+        for (int side = 0; side < 2; ++side) {
+          const int to = side == 0 ? (k + 1) % K_ : (k + K_ - 1) % K_;
+          const double delta = std::remainder(headings_[to].yaw_rad - headings_[k].yaw_rad, 2 * kPi);
+          const int n = std::max(1, static_cast<int>(std::ceil(std::fabs(delta) / kSweepStepRad)));
+          std::vector<Region> sweep;
+          for (int i = 0; i <= n; ++i) {
+            const double a = delta * i / n, c = std::cos(a), s = std::sin(a);
+            std::vector<Vec2> box;
+            for (Vec2 v : box_polygon(x0, x1, y0, y1)) box.push_back({c * v.x - s * v.y, s * v.x + c * v.y});
+            sweep.push_back({box, m});
+          }
+          sweep_[k][side] = GridShape(sweep, headings_[k].yaw_rad, res, stride_);
+        }
+      }
     }
   }
 
@@ -252,6 +382,7 @@ class LatticeSearch {
     reached_.assign(n_cells_, 0);
     closed_.assign(n_cells_, 0);
     turn_ok_.assign(n_cells_, kUnchecked);
+    sweep_ok_.assign(fp_.round() ? 0 : n_cells_ * K_, 0);
     h_.assign(n_cells_, std::numeric_limits<double>::infinity());
     bearing_.assign(n_cells_, std::numeric_limits<double>::quiet_NaN());
     settled_.assign(n_cells_, 0);
@@ -307,6 +438,21 @@ class LatticeSearch {
   bool turn_clear(int a) {
     if (turn_ok_[a] == kUnchecked) turn_ok_[a] = turn_.clear(obstacle_.data(), a, d2_[a]) ? kYes : kNo;
     return turn_ok_[a] == kYes;
+  }
+
+  // Turning from heading k at padded cell `a` to k + 1 (side 0) or k - 1 (side 1): all the way
+  // round is safe there, or the sweep to that neighbour is (memoised per state and side).
+  bool turn_ok(int a, int k, int side) {
+    if (turn_clear(a)) return true;
+    if (fp_.round()) return false;
+    std::uint8_t& memo = sweep_ok_[static_cast<size_t>(a) * K_ + k];
+    const int shift = 2 * side;
+    std::uint8_t known = (memo >> shift) & 3;
+    if (known == kUnchecked) {
+      known = sweep_[k][side].clear(obstacle_.data(), a, d2_[a]) ? kYes : kNo;
+      memo |= known << shift;
+    }
+    return known == kYes;
   }
 
   // ---------------------------------------------------------------- heuristic
@@ -402,11 +548,10 @@ class LatticeSearch {
       const double g = g_[s];
       if (forward_clear(cell, k))
         open_state((cell + step_[k]) * K_ + k, g + forward_cost(cell, k), kForward);
-      if (turn_clear(cell)) {
-        const double per_rad = p_.turn_cost_m_per_rad;
-        open_state(cell * K_ + (k + 1) % K_, g + per_rad * turn_rad_[k][0], kTurnLeft);
+      const double per_rad = p_.turn_cost_m_per_rad;
+      if (turn_ok(cell, k, 0)) open_state(cell * K_ + (k + 1) % K_, g + per_rad * turn_rad_[k][0], kTurnLeft);
+      if (turn_ok(cell, k, 1))
         open_state(cell * K_ + (k + K_ - 1) % K_, g + per_rad * turn_rad_[k][1], kTurnRight);
-      }
     }
     return false;
   }
@@ -434,6 +579,7 @@ class LatticeSearch {
   }
 
   static constexpr std::uint8_t kUnchecked = 0, kYes = 1, kNo = 2;
+  static constexpr double kSweepStepRad = 3.0 * kPi / 180.0;
 
   struct SettledTest {
     const std::vector<std::uint8_t>* settled;
@@ -449,6 +595,7 @@ class LatticeSearch {
   // Per heading:
   std::array<GridShape, 16> pose_, move_;
   GridShape turn_;
+  std::array<std::array<GridShape, 2>, 16> sweep_;      // box robots: the partial turns
   std::array<int, 16> step_{};                          // padded offset of the forward move
   std::array<double, 16> length_m_{};                   // its length
   std::array<std::vector<std::int64_t>, 16> entered_;   // the cells its centre enters
@@ -459,6 +606,7 @@ class LatticeSearch {
   std::vector<float> d2_;                // squared distance (cells) to the nearest obstacle
   std::vector<std::uint16_t> reached_, closed_;  // a bit per heading
   std::vector<std::uint8_t> turn_ok_;    // kUnchecked, kYes, kNo
+  std::vector<std::uint8_t> sweep_ok_;   // per state: 2 bits per side, kUnchecked, kYes, kNo
   std::vector<double> h_;                // heuristic (cost-to-go), final where settled_
   std::vector<std::uint8_t> settled_;
   std::vector<double> bearing_;          // direction (rad) to the goal; NaN: not yet, inf: the goal

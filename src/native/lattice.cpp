@@ -99,6 +99,35 @@ py::array_t<std::uint8_t> py_footprint_costmap(const I8Grid& occupancy, double r
   return out;
 }
 
+py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resolution,
+                                            std::pair<int, int> start, double start_yaw,
+                                            double snap_radius_m, double footprint_length_m,
+                                            double footprint_width_m, double footprint_offset_x_m,
+                                            double radius_m, int headings, double margin_m,
+                                            double turn_margin_m, double cost_weight,
+                                            double inflation_m, double cost_scaling_factor,
+                                            double turn_cost_m_per_rad, int occupied_threshold,
+                                            bool unknown_is_obstacle) {
+  const Shape s = grid_shape(occupancy, "lattice_cost_to_come", "occupancy");
+  if (!std::isfinite(start_yaw)) fail("lattice_cost_to_come", "start_yaw must be finite");
+  if (!(std::isfinite(snap_radius_m) && snap_radius_m >= 0))
+    fail("lattice_cost_to_come", "snap_radius_m must be >= 0");
+  const tp::Footprint footprint{footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m};
+  const tp::LatticeParams params{resolution,   headings,          margin_m,
+                                 turn_margin_m, cost_weight,      inflation_m,
+                                 cost_scaling_factor, turn_cost_m_per_rad, occupied_threshold,
+                                 unknown_is_obstacle};
+  py::array_t<float> out({s.rows, s.cols});
+  float* dst = out.mutable_data();
+  {
+    py::gil_scoped_release release;
+    tp::LatticeSearch search(occupancy.data(), s.rows, s.cols, footprint, params);
+    search.reach_from({start.first, start.second}, start_yaw,
+                      static_cast<int>(snap_radius_m / resolution), dst);
+  }
+  return out;
+}
+
 // footprint_clear (margin_m) and footprint_clearance (max_m): one answer per (x, y, yaw) pose.
 template <class Out, class PerPose>
 py::array_t<Out> per_pose(const char* fn, const I8Grid& occupancy, double resolution,
@@ -198,6 +227,20 @@ void register_lattice(py::module_& m) {
         "(n,) (reached by turning in place), cost, length_m, turned_rad, expanded; n = 0 and cost\n"
         "inf when the goal is unreachable. ValueError naming the start or goal when it is off the\n"
         "grid, in an obstacle, in unknown space or its footprint collides.");
+  m.def("lattice_cost_to_come", &py_lattice_cost_to_come, py::arg("occupancy"),
+        py::arg("resolution"), py::arg("start"), py::arg("start_yaw"),
+        py::arg("snap_radius_m") = 0.5, py::arg("footprint_length_m") = 0.0,
+        py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,
+        py::arg("radius_m") = 0.105, py::arg("headings") = 16, py::arg("margin_m") = 0.02,
+        py::arg("turn_margin_m") = 0.01, py::arg("cost_weight") = 1.0,
+        py::arg("inflation_m") = 0.35, py::arg("cost_scaling_factor") = 5.0,
+        py::arg("turn_cost_m_per_rad") = 0.325, py::arg("occupied_threshold") = 65,
+        py::arg("unknown_is_obstacle") = false,
+        "float32 (rows, cols): the cheapest plan_lattice cost (m) from the robot at cell `start`\n"
+        "with yaw start_yaw to each cell at its cheapest heading; inf where plan_lattice finds no\n"
+        "path. Start states: every heading that fits where the turning disc does (each costing\n"
+        "the turn), else the headings along the robot's line either way; when none fits, the\n"
+        "nearest cell within snap_radius_m where one does. All inf when there is none.");
   m.def("footprint_costmap", &py_footprint_costmap, py::arg("occupancy"), py::arg("resolution"),
         py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
         py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,

@@ -14,6 +14,7 @@ from turtlebot_recon.exploration.frontiers import FrontierSettings
 from turtlebot_recon.exploration.goals import GoalBookSettings
 from turtlebot_recon.exploration.strategies import DEFAULT_STRATEGY, STRATEGIES
 from turtlebot_recon.mapping.mapper import MapperSettings
+from turtlebot_recon.planning.lattice import LatticeSettings
 from turtlebot_recon.planning.navigation import NavigationSettings
 from turtlebot_recon.robot import CONFIG_DIR, RobotSpec, load_robot
 from turtlebot_recon.sim.simulator import SimSettings
@@ -25,12 +26,14 @@ CONFIG = TOP / "config"
 
 # Every block of every config/*.yaml: (file, key path of the block) -> its settings class. The
 # path () is the file's top level, less the keys that lead to a block or selector of their own.
-# Nested dataclass fields (mapper.yaml's grid, navigator.yaml's planner and follower, oracle.yaml's
-# route) are part of their class's block.
+# Nested dataclass fields (mapper.yaml's grid, navigator.yaml's follower, oracle.yaml's route)
+# are part of their class's block, except those with a file of their own (OWN_FILE), which the
+# launch files load into the node's namespace under the field's name.
 BLOCKS = {
     ("sim_bridge.yaml", ()): SimSettings,
     ("mapper.yaml", ()): MapperSettings,
     ("navigator.yaml", ()): NavigationSettings,
+    ("lattice.yaml", ()): LatticeSettings,
     ("supervisor.yaml", ()): SupervisorSettings,
     ("trajectory.yaml", ()): TrajectorySettings,
     ("evaluator.yaml", ()): EvaluatorSettings,
@@ -41,6 +44,7 @@ BLOCKS = {
     ("explorer.yaml", ("goals",)): GoalBookSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
+OWN_FILE = {LatticeSettings: "lattice.yaml"}
 # Keys that choose rather than set: (file, key path) -> (the choices, the default).
 SELECTORS = {("explorer.yaml", ("strategy",)): (set(STRATEGIES), DEFAULT_STRATEGY)}
 
@@ -63,9 +67,9 @@ def _is_or_holds_a_row(name: str, path: tuple) -> bool:
 def _assert_keys_are_fields(cls, block: dict, where: str) -> None:
     """The block's keys are exactly the class's fields, and likewise in nested dataclass fields."""
     hints = typing.get_type_hints(cls)
-    assert set(block) == {f.name for f in dataclasses.fields(cls)}, where
+    assert set(block) == {f.name for f in dataclasses.fields(cls) if hints[f.name] not in OWN_FILE}, where
     for f in dataclasses.fields(cls):
-        if dataclasses.is_dataclass(hints[f.name]):
+        if dataclasses.is_dataclass(hints[f.name]) and hints[f.name] not in OWN_FILE:
             _assert_keys_are_fields(hints[f.name], block[f.name], f"{where}/{f.name}")
 
 

@@ -295,6 +295,27 @@ def test_supervisor_twist_cancels_the_goal_and_drives():
     assert run.lines("explorer: state BUMPER_BACKOFF (bumper centre)")
 
 
+def with_wall(column):
+    grid = strip()
+    occ = grid.data.copy()
+    occ[:, column] = 100
+    return Grid(occ, RES, grid.origin)
+
+
+@pytest.mark.parametrize("wall_column, backs", [(27, False), (33, True), (None, True)])
+def test_a_recovery_twist_that_would_hit_the_mapped_wall_is_not_driven(wall_column, backs):
+    # The burger (0.105 m) at x = 1.525 m backs off a bump at 0.1 m/s; checked over 0.5 s it
+    # moves 0.05 m. A wall behind it (column 27, x <= 1.40 m: 0.02 m from its back) would be
+    # hit: it stops and says so. A wall in front (column 33, the one it bumped) or none: it backs.
+    run = Run(grid=strip() if wall_column is None else with_wall(wall_column))
+    run.until_goal()
+    a, b = run.tick(bumper=CENTRE)
+    assert b.state == "BUMPER_BACKOFF"
+    velocity = [x for x in b.actions if isinstance(x, Velocity)]
+    assert velocity == ([Velocity(-0.1, 0.0)] if backs else [Velocity(0.0, 0.0)])
+    assert bool(run.lines("would bring the body onto an obstacle: stopped")) is not backs
+
+
 def test_stuck_nudge_goal_then_back_to_the_frontier_goal():
     run = Run(supervisor=SupervisorSettings(spin_angle_deg=0.0))   # stuck after 10 s
     goal = run.until_goal()

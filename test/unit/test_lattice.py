@@ -19,7 +19,7 @@ from turtlebot_recon import _native
 from turtlebot_recon.config import ConfigError
 from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
                                       PlanningError, footprint_clear, footprint_costmap,
-                                      make_costmap, plan, plan_lattice)
+                                      lattice_cost_to_come, make_costmap, plan, plan_lattice)
 from turtlebot_recon.robot import load_robot
 
 RES = 0.05
@@ -133,11 +133,19 @@ def check_path(path, robot, settings, occ):
             continue
         (r0, c0), k0 = path.cells[i - 1], int(path.headings[i - 1])
         if path.turned[i]:
-            # a turn in place to the next heading, where the disc fits
+            # a turn in place to the next heading, where the disc fits or, failing that, where
+            # the body keeps the margin at every yaw in between (0.5 deg apart; the lattice
+            # samples 3 deg, whose corner slivers are < 0.1 mm deep)
             assert (r, c) == (r0, c0) and (k - k0) % 16 in (1, 15), f"pose {i} is no turn"
             x, y, _ = path.poses[i]
             clear = square_distance(x, y, cx, cy).min(initial=np.inf)
-            assert clear >= turning_disc(robot, settings) - tiny, f"turn at pose {i} is too tight"
+            if clear < turning_disc(robot, settings) - tiny:
+                assert not robot.is_round, f"turn at pose {i} is too tight"
+                a0 = HEADINGS[k0][2]
+                delta = math.remainder(HEADINGS[k][2] - a0, 2 * math.pi)
+                for a in np.linspace(a0, a0 + delta, int(math.ceil(abs(delta) / math.radians(0.5))) + 1):
+                    assert body_clearance(robot, (x, y, a), cx, cy) >= margin - 1e-4, \
+                        f"turn at pose {i} sweeps the body onto an obstacle at {math.degrees(a):.1f} deg"
             turned += abs(math.remainder(HEADINGS[k][2] - HEADINGS[k0][2], 2 * math.pi))
         else:
             # one lattice vector forward; the body clear every centimetre along it
@@ -317,19 +325,39 @@ def test_burger_passes_the_030_gap():
 
 # ---------------------------------------------------------------- turning
 
-def test_turns_in_place_only_where_the_disc_fits_l_corridor():
+def test_turns_where_the_disc_fits_or_the_sweep_clears_l_corridor():
     # The 0.45 m corridor holds the box (0.225 m each side of the middle cell, 0.072 m spare)
-    # but not the turning disc (0.257 + 0.01 = 0.267 m > 0.225 m), so the robot turns the 90
-    # degree corner only inside the 0.8 m corner room, whose middle cells lie 0.375 m from its
-    # walls; check_path checks the disc at every turn.
+    # but not the turning disc (0.257 + 0.01 = 0.267 m > 0.225 m), nor the box turned 45 deg:
+    # the robot turns the 90 degree corner only where the 0.8 m corner room gives it room;
+    # check_path checks the disc or the sweep at every turn.
     start, goal = centre(14, 10), centre(50, 36)[:2]
     path = lattice(l_corridor(corner_room=True), WAFFLE, start, goal)
     turns = path.cells[path.turned]
     assert len(turns) >= 4            # four 22.5 deg-ish steps make the 90 degrees
-    assert ((turns[:, 0] >= 6) & (turns[:, 0] <= 21) & (turns[:, 1] >= 28) & (turns[:, 1] <= 43)).all()
     assert path.turned_rad == pytest.approx(math.pi / 2)
     with pytest.raises(PlanningError, match="unreachable"):
         lattice(l_corridor(corner_room=False), WAFFLE, start, goal)
+
+
+def test_a_box_squares_up_in_a_corridor_too_narrow_for_its_disc():
+    # A 0.5 m corridor (rows 10-19): the waffle_pi's disc (0.267 m with its margin) fits
+    # nowhere, but its box at 26.6 deg does, and the sweep from there to 0 deg clears the walls:
+    # the lattice turns it partway (the old disc-only rule left it no move but into the wall).
+    occ = np.full((30, 120), 100, np.int8)
+    occ[10:20, 1:119] = 0
+    settings = LatticeSettings.for_robot(WAFFLE)
+    yaw = HEADINGS[1][2]
+    rows = [r for r in range(10, 20)
+            if footprint_clear(occ, RES, ORIGIN, WAFFLE, np.array([centre(r, 20, yaw)]), settings)[0]]
+    assert rows
+    start = centre(rows[len(rows) // 2], 20, yaw)
+    path = lattice(occ, WAFFLE, start, centre(15, 100)[:2])
+    first_turn = int(np.argmax(path.turned))
+    assert path.turned.any() and first_turn <= 2          # it squares up at once
+    x, y, _ = path.poses[first_turn]
+    disc = WAFFLE.radius_m + settings.turn_margin_m
+    assert min(y - 0.5, 1.0 - y) < disc                   # where the disc does not fit
+    assert path.headings[-1] == 0
 
 
 def test_a_turn_costs_the_cruise_distance_lost_turning():
@@ -373,19 +401,30 @@ def test_burger_path_cost_close_to_the_grid_search_around_a_block():
 
 # ---------------------------------------------------------------- random maps
 
+def random_blocks(rng, n):
+    """A walled 50 x 60 grid with ``n`` random blocks of 2-11 cells a side."""
+    occ = walled(50, 60)
+    for _ in range(n):
+        h, w = rng.integers(2, 12, 2)
+        r, c = rng.integers(1, 50 - h), rng.integers(1, 60 - w)
+        occ[r:r + h, c:c + w] = 100
+    return occ
+
+
+def roomy_cells(occ):
+    """(row, col) of the free cells more than 0.35 m from every obstacle."""
+    clear = _native.distance_transform((occ == 100).astype(np.uint8), RES) > 0.35
+    return np.argwhere(clear & (occ == 0))
+
+
 @pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
 def test_random_maps_paths_are_valid_and_deterministic(robot):
     rng = np.random.default_rng(4)
     found = 0
     for trial in range(10):
-        occ = walled(50, 60)
-        for _ in range(8):
-            h, w = rng.integers(2, 12, 2)
-            r, c = rng.integers(1, 50 - h), rng.integers(1, 60 - w)
-            occ[r:r + h, c:c + w] = 100
+        occ = random_blocks(rng, 8)
         occ[rng.random(occ.shape) < 0.02] = -1          # a few unknown cells
-        clear = _native.distance_transform((occ == 100).astype(np.uint8), RES) > 0.35
-        free = np.argwhere(clear & (occ == 0))             # every heading fits, even turning
+        free = roomy_cells(occ)                            # every heading fits, even turning
         a, b = free[rng.choice(len(free), 2, replace=False)]
         start, goal = centre(*a, yaw=rng.uniform(-math.pi, math.pi)), centre(*b)[:2]
         try:
@@ -399,6 +438,80 @@ def test_random_maps_paths_are_valid_and_deterministic(robot):
             assert np.array_equal(getattr(path, field), getattr(again, field)), (trial, field)
         assert path.cost == again.cost
     assert found >= 6
+
+
+# ---------------------------------------------------------------- where the robot can go
+
+def reach(occ, robot, pose, snap_radius_m=0.5):
+    return lattice_cost_to_come(occ, RES, ORIGIN, robot, pose, LatticeSettings.for_robot(robot),
+                                snap_radius_m)
+
+
+@pytest.mark.parametrize("corner_room", [False, True])
+def test_cost_to_come_is_where_the_lattice_goes_not_where_the_box_fits(corner_room):
+    # Without the corner room the north leg holds the box at heading 90 deg (the costmap says
+    # some heading fits there) but the robot coming along the east leg cannot turn into it: the
+    # explorer must not count a frontier there as reachable. With the room it turns there.
+    occ = l_corridor(corner_room)
+    start = centre(14, 10)
+    field = reach(occ, WAFFLE, start)
+    costmap = footprint_costmap(occ, RES, WAFFLE, LatticeSettings.for_robot(WAFFLE))
+    assert costmap[50, 36] < 253 and costmap[30, 36] < 253
+    assert np.isfinite(field[14, 10:37]).all()
+    assert (field[14, 10] == 0.0)
+    if corner_room:
+        path = lattice(occ, WAFFLE, start, centre(50, 36)[:2])
+        assert field[50, 36] == pytest.approx(path.cost, rel=1e-5)
+    else:
+        assert np.isinf(field[30:56, 32:41]).all()
+    assert np.isinf(field[occ >= 65]).all()
+
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_cost_to_come_is_finite_exactly_where_plan_lattice_finds_a_path(robot):
+    rng = np.random.default_rng(11)
+    settings = LatticeSettings.for_robot(robot)
+    checked = unreachable = 0
+    for trial in range(6):
+        occ = random_blocks(rng, 10)
+        occ[:, 50] = 100                                   # a sealed room beyond column 50
+        free = roomy_cells(occ)                            # the robot can turn where it starts
+        start = centre(*free[rng.integers(len(free))], yaw=rng.uniform(-math.pi, math.pi))
+        field = reach(occ, robot, start)
+        fits = np.argwhere(footprint_costmap(occ, RES, robot, settings) < 253)
+        for cell in fits[rng.choice(len(fits), 12, replace=False)]:
+            try:
+                cost = plan_lattice(occ, RES, ORIGIN, robot, start, centre(*cell)[:2], settings).cost
+            except PlanningError as exc:
+                assert "unreachable" in str(exc)
+                cost = math.inf
+            assert np.isfinite(field[tuple(cell)]) == math.isfinite(cost), (trial, cell)
+            if math.isfinite(cost):      # the field starts at the exact yaw, the plan snaps it to
+                # the nearest heading: they differ by the turn cost of half the widest gap
+                # between two headings, (1, 0) to (2, 1)
+                half_gap = 0.5 * math.atan2(1, 2)
+                assert abs(field[tuple(cell)] - cost) <= settings.turn_cost_m_per_rad * half_gap + 1e-4
+            checked += 1
+            unreachable += not math.isfinite(cost)
+    assert checked == 72 and unreachable >= 3
+
+
+def test_cost_to_come_starts_as_the_navigator_does():
+    # Facing away from a wall with the rear within margin_m of it (row 4): the box fits there
+    # only across the wall or facing it, going nowhere; the first cell straight ahead where it
+    # fits facing away (row 5) starts the field, as the navigator starts its plans there.
+    occ = walled(40, 40)
+    field = reach(occ, WAFFLE, centre(4, 20, yaw=math.pi / 2))
+    assert field[5, 20] == pytest.approx(RES)
+    assert np.isfinite(field[20, 20]) and np.isfinite(field[20, 5])
+    # Nothing fits at the robot's cell nor ahead (it faces the wall from too near): the nearest
+    # cells where some heading fits, at the distance to them; none within snap_radius_m: inf.
+    start = centre(2, 20, yaw=-math.pi / 2)
+    field = reach(occ, WAFFLE, start)
+    first = np.unravel_index(np.argmin(field), field.shape)
+    assert np.isinf(field[2, 20]) and 0 < field.min() <= 0.5
+    assert field.min() == pytest.approx(RES * math.hypot(first[0] - 2, first[1] - 20), rel=1e-6)
+    assert np.isinf(reach(occ, WAFFLE, start, snap_radius_m=0.04)).all()
 
 
 def test_unknown_cells_are_never_entered():

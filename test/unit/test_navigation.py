@@ -196,13 +196,12 @@ def test_waffle_drives_through_a_045_gap_the_disc_planner_closes():
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005       # 0 collisions
 
 
-def test_turns_in_place_only_where_the_disc_fits():
+def test_drives_round_the_corner_of_corridors_narrower_than_its_turning_disc():
     # A 0.45 m corridor east (y in [0.5, 0.95)), then north (x in [1.6, 2.05)), joined by a
     # 0.8 m square room at the corner (x, y in [1.4, 2.2)): the box fits the corridors, the
     # turning disc (0.257 m) only the room. The navigator drives the waffle_pi round the
-    # corner; every in-place turn of more than the 0.03 rad alignment happens where the disc
-    # clears the walls (the small alignment turns elsewhere sweep the box clear), and the body
-    # never comes nearer than 5 mm to a wall.
+    # corner, turning 90 degrees in all; the body never comes nearer than 5 mm to a wall (turns
+    # where the disc does not fit are partial ones whose sweep the lattice checked).
     occ = np.full((80, 60), 100, np.int8)
     occ[10:19, 2:41] = 0            # east corridor: x in [0.1, 2.05), y in [0.5, 0.95)
     occ[10:75, 32:41] = 0           # north corridor: x in [1.6, 2.05), y in [0.5, 3.75)
@@ -213,13 +212,25 @@ def test_turns_in_place_only_where_the_disc_fits():
     poses, commands = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
     assert nav.status == "succeeded", nav.reason
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+    assert abs(poses[-1][2] - math.pi / 2) < 0.3
     turning = np.array([p for p, (v, w) in commands if v == 0.0 and w != 0.0])
-    assert len(turning) >= 10                                     # 90 deg at <= 0.8 rad/s: >= 2 s
-    in_room = (turning[:, 0] > 1.4) & (turning[:, 0] < 2.2) & (turning[:, 1] > 0.3) & (turning[:, 1] < 1.1)
-    assert disc_clearance(WAFFLE, occ, turning[in_room, :2]).min() > 0.0
-    # in-place turning where the disc does not fit: alignment only (w x 0.1 s per period)
-    assert sum(abs(w) * 0.1 for p, (v, w) in commands
-               if v == 0.0 and disc_clearance(WAFFLE, occ, [p[:2]])[0] == 0.0) < 0.1
+    assert len(turning) >= 5
+
+
+def test_a_goal_whose_turnable_cell_lies_beyond_a_thin_wall_is_reached_on_its_own_cell():
+    # A 0.45 m corridor (y in [0.5, 0.95)) under a 0.05 m wall, a wide room above. The goal in
+    # the corridor has no cell where the disc fits on its side; the nearest such cell (within
+    # snap_radius_m) is in the room, out of reach. The navigator drives to the goal's own cell.
+    occ = np.full((50, 80), 100, np.int8)
+    occ[10:19, 2:78] = 0            # the corridor
+    occ[20:48, 2:78] = 0            # the room, beyond the wall at row 19
+    nav = Navigation(NavigationSettings(snap_radius_m=0.8), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(3.0, 0.725)
+    poses, _ = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.dist(poses[-1][:2], (3.0, 0.725)) < 0.15
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
 
 
 def test_backs_out_of_a_dead_end_it_cannot_turn_in():

@@ -8,8 +8,9 @@ spin: the headroom left to any strategy, and a check on targets stated as ratios
 
 The route is a heuristic (no optimum is claimed; watchman routes are NP-hard):
 
-1. viewpoints   one cell per ``lattice_m`` block of the cells the robot reaches from the start
-                on the true costmap with cost <= ``max_cost`` (the explorer's goal rule);
+1. viewpoints   one cell per ``lattice_m`` block of the cells the navigator's state lattice
+                reaches from the start on the true map (``lattice_cost_to_come``: the
+                explorer's reachability) with cost <= ``max_cost`` (its goal rule);
 2. sight        the F cells each sees: line of sight within the sensor range, LIDAR_BEAMS rays
                 (``_native.visible_cells``, as F itself is made);
 3. cover        greedy set cover, from what the start sees, until ``target`` of F; restarts
@@ -35,7 +36,7 @@ from .. import _native
 from ..config import positive, require
 from ..exploration import tour
 from ..geometry import cells_to_points
-from ..planning.costmap import CostmapSettings, make_costmap
+from ..planning.lattice import LatticeSettings, footprint_costmap, lattice_cost_to_come
 from ..robot import RobotSpec
 from ..sim.world import World
 from .coverage import LIDAR_BEAMS, free_at, lattice_points, reachable_free_space
@@ -71,6 +72,7 @@ class OracleDriverSettings:
     robot: str = "turtlebot3_waffle_pi"  # costmap footprint, F's radius and lidar range
     map_frame: str = "odom"              # goals go out in this frame (the start pose is its origin)
     route: OracleSettings = field(default_factory=OracleSettings)
+    lattice: LatticeSettings = field(default_factory=LatticeSettings)   # config/lattice.yaml
     replan_restarts: int = 0             # randomised covers for the routes after the first
     finish_coverage: float = 0.995       # share of F the robot's map covers: done
     resend_period_s: float = 1.0         # s (sim), the map is checked for a nearer point this often
@@ -101,7 +103,8 @@ class Oracle:
     """The true costmap, F, what each viewpoint sees (cached across routes), and routes."""
 
     def __init__(self, world: World, robot: RobotSpec, sensor_range_m: float,
-                 settings: OracleSettings = OracleSettings()):
+                 settings: OracleSettings = OracleSettings(),
+                 lattice: LatticeSettings = LatticeSettings()):
         settings.validate("oracle")
         self.world, self.s, self.res = world, settings, world.resolution
         F = reachable_free_space(world, robot.radius_m, sensor_range_m)
@@ -110,12 +113,14 @@ class Oracle:
         self.solid = world.solid.astype(np.uint8)
         self.radius_cells = max(0.0, sensor_range_m - settings.range_margin_m) / self.res
         occupancy = np.where(world.free, 0, 100).astype(np.int8)
-        self.costmap = make_costmap(occupancy, self.res, CostmapSettings.for_robot(robot))
-        start = self.cell(world.start[0], world.start[1])
-        if start is None:
+        # the navigator's graded costmap (253 where no heading of the footprint fits) for path
+        # distances, and its lattice for where the robot can go
+        lattice = lattice.with_robot(robot)
+        self.costmap = footprint_costmap(occupancy, self.res, robot, lattice)
+        if self.cell(world.start[0], world.start[1]) is None:
             raise ValueError(f"{world.path}: the start is off the map or in an obstacle's "
                              "inscribed band")
-        field = _native.dijkstra(self.costmap, start, resolution=self.res)
+        field = lattice_cost_to_come(occupancy, self.res, world.origin, robot, world.start, lattice)
         ok = np.isfinite(field) & (self.costmap <= settings.max_cost)
         self.cells = lattice_points(ok, max(1, round(settings.lattice_m / self.res)))
         self._sight: dict = {}

@@ -50,15 +50,17 @@ import numpy as np
 from ..behavior import Inputs, Supervisor, SupervisorSettings
 from ..behavior.supervisor import NAV_STATUSES
 from ..config import positive, require
+from ..control.footprint import BodyCheck
 from ..geometry import inside, xy_to_cell
-from ..planning import INSCRIBED, CostmapSettings, make_costmap
+from ..planning import INSCRIBED, LatticeSettings, footprint_costmap, lattice_cost_to_come
 from ..robot import RobotSpec
-from .frontiers import FrontierSettings, detect, robot_cost_to_come
+from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
 from .strategies import Context
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
 INFO, WARNING = logging.INFO, logging.WARNING
+BODY_CHECK_STEP_S = 0.05                           # a recovery twist's poses checked this often
 
 
 @dataclass(frozen=True)
@@ -76,12 +78,14 @@ class ExplorerSettings:
                                          # often in a row before it counts as a failure
     scan_margin_m: float = 0.03          # scan clearance: the body's half width plus this
     scan_max_age_s: float = 1.0          # older scans are not used for recoveries
+    twist_check_s: float = 0.5           # a supervisor twist (recovery) is checked this far ahead
+                                         # with the body against the map; unsafe: not driven
     status_period_wall_s: float = 5.0    # terminal progress line (wall time: readable at any rtf)
     shutdown_when_done: bool = False     # end the node once the supervisor says DONE
 
     def validate(self, src: str) -> None:
         positive(src, self, "cycle_period_s", "supervisor_rate_hz", "same_goal_m", "scan_max_age_s",
-                 "status_period_wall_s")
+                 "status_period_wall_s", "twist_check_s")
         require(isinstance(self.abort_retries, int) and self.abort_retries >= 0, src, "abort_retries",
                 "must be an integer >= 0")
         require(self.scan_margin_m >= 0, src, "scan_margin_m", "must be >= 0")
@@ -197,11 +201,14 @@ class Explorer:
 
     def __init__(self, settings: ExplorerSettings, frontier_settings: FrontierSettings, strategy,
                  book: GoalBook, supervisor_settings: SupervisorSettings, robot: RobotSpec,
-                 log: Optional[Log] = None):
+                 log: Optional[Log] = None, lattice: Optional[LatticeSettings] = None):
         self.s, self.fs, self.strategy, self.book = settings, frontier_settings, strategy, book
         self.sup_settings = supervisor_settings
         self.supervisor: Optional[Supervisor] = None        # built by start()
-        self.costmap_settings = CostmapSettings.for_robot(robot)
+        # the navigator's lattice (config/lattice.yaml): goals count as reachable where it
+        # reaches them, behind gaps narrower than the turning disc too
+        self.robot, self.lattice = robot, (lattice or LatticeSettings()).with_robot(robot)
+        self.body = BodyCheck(robot, occupied_threshold=self.lattice.occupied_threshold)
         half_width = robot.radius_m if robot.is_round else 0.5 * robot.footprint_width_m
         self.scan_half_width_m = half_width + settings.scan_margin_m   # for ScanClearance
         self.rng = np.random.default_rng(settings.seed)
@@ -320,9 +327,12 @@ class Explorer:
     # ------------------------------------------------------------------ explorer cycle
     def _cycle(self, now: float, pose: tuple, grid: Grid, visits: Optional[Grid]) -> None:
         occ, res, origin = grid.data, grid.resolution, grid.origin
-        costmap = make_costmap(occ, res, self.costmap_settings)
+        # where the navigator can take the robot: its lattice, from the robot's pose (a cell
+        # where some heading fits may still be out of reach: a slot the box cannot turn into)
+        costmap = footprint_costmap(occ, res, self.robot, self.lattice)
         cell = xy_to_cell(pose[:2], res, origin)
-        field = robot_cost_to_come(costmap, cell, res, self.fs.snap_radius_m)
+        field = lattice_cost_to_come(occ, res, origin, self.robot, pose, self.lattice,
+                                     self.fs.snap_radius_m)
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
@@ -419,7 +429,7 @@ class Explorer:
             self.cycle_now = True
         if cmd.kind == "twist":
             self._cancel()
-            out.actions.append(Velocity(cmd.linear_mps, cmd.angular_radps))
+            out.actions.append(self._checked_twist(cmd.linear_mps, cmd.angular_radps, pose, now))
         elif cmd.kind == "goal":
             g, sent = cmd.goal, self.sent
             same = (sent is not None and sent.kind == "supervisor" and math.dist(sent.xy, g[:2]) <= 1e-3
@@ -443,6 +453,40 @@ class Explorer:
             self._log(INFO, "explorer: DONE (%s) at t=%.1f s sim; %d goals blacklisted", cmd.reason, now,
                       len(self.book.entries()))
         self.mode = cmd.kind
+
+    def _checked_twist(self, v: float, w: float, pose: tuple, now: float) -> Velocity:
+        """The supervisor's twist if the body, driven by it for ``twist_check_s`` from ``pose``,
+        keeps the follower's margin off every obstacle of the last map or at least gets no
+        nearer to them (backing off a wall it touches); else its turn alone if that is safe,
+        else a stop. The recoveries read the scan, which sees neither the box's corners nor
+        what the lidar's plane misses; the map holds both."""
+        ctx = self.ctx
+        if ctx is None or (v == 0.0 and w == 0.0):
+            return Velocity(v, w)
+        for lin, ang in ((v, w), (0.0, w)):
+            if (lin, ang) != (v, w) and ang == 0.0:
+                break
+            if self._body_safe(ctx, pose, lin, ang):
+                if (lin, ang) != (v, w):
+                    self._log_throttled(5.0, now, WARNING, "explorer: recovery twist (%.2f m/s, %.2f "
+                                        "rad/s) would bring the body onto an obstacle: turning only", v, w)
+                return Velocity(lin, ang)
+        self._log_throttled(5.0, now, WARNING, "explorer: recovery twist (%.2f m/s, %.2f rad/s) would "
+                            "bring the body onto an obstacle: stopped", v, w)
+        return Velocity()
+
+    def _body_safe(self, ctx: Context, pose: tuple, v: float, w: float) -> bool:
+        """Whether driving (v, w) for ``twist_check_s`` keeps the body clear (``_checked_twist``)."""
+        steps = np.arange(0.0, self.s.twist_check_s + 1e-9, BODY_CHECK_STEP_S)
+        yaw = pose[2] + w * steps
+        if abs(w) > 1e-9:
+            x = pose[0] + v / w * (np.sin(yaw) - math.sin(pose[2]))
+            y = pose[1] - v / w * (np.cos(yaw) - math.cos(pose[2]))
+        else:
+            x, y = pose[0] + v * steps * math.cos(pose[2]), pose[1] + v * steps * math.sin(pose[2])
+        margin = self.body.margin_m
+        clearance = self.body.clearance(ctx, np.column_stack([x, y, yaw]), margin)
+        return bool((clearance >= np.minimum(margin, clearance[0]) - 1e-9).all())
 
     def _send(self, kind: str, xy: tuple, yaw: Optional[float], pose: tuple, retries: int = 0) -> None:
         """Make the navigator pursue (x, y[, yaw]) (yaw None: any final heading)."""

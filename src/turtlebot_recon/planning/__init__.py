@@ -8,11 +8,11 @@ from .._native import astar, dijkstra, distance_transform, inflate, nearest_acce
 from .costmap import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, CostmapSettings,
                       PlannerSettings, PlanningError, make_costmap, plan)
 from .lattice import (LatticePath, LatticeSettings, footprint_clear, footprint_costmap,
-                      plan_lattice)
+                      lattice_cost_to_come, plan_lattice)
 
 __all__ = [
     "FREE_SPACE", "INSCRIBED", "LETHAL", "NO_INFORMATION", "CostmapSettings", "PlannerSettings",
     "PlanningError", "make_costmap", "plan", "astar", "dijkstra", "distance_transform", "inflate",
     "nearest_accessible", "shortcut", "LatticePath", "LatticeSettings", "plan_lattice",
-    "footprint_clear", "footprint_costmap",
+    "footprint_clear", "footprint_costmap", "lattice_cost_to_come",
 ]

@@ -95,6 +95,16 @@ def footprint_args(robot: RobotSpec) -> dict:
                 footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
 
 
+def search_args(robot: RobotSpec, settings: LatticeSettings) -> dict:
+    """The footprint and ``settings`` (speeds set: ``with_robot``) as the native searches take them."""
+    return dict(**footprint_args(robot), headings=settings.headings, margin_m=settings.margin_m,
+                turn_margin_m=settings.turn_margin_m, cost_weight=settings.cost_weight,
+                inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
+                turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
+                occupied_threshold=settings.occupied_threshold,
+                unknown_is_obstacle=settings.unknown_is_obstacle)
+
+
 def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                  robot: RobotSpec, start_pose: Sequence[float], goal_xy: Sequence[float],
                  settings: LatticeSettings, goal_yaw: Optional[float] = None) -> LatticePath:
@@ -111,13 +121,8 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
     goal = geometry.xy_to_cell(goal_xy, resolution, origin)
     try:
         out = _native.plan_lattice(
-            occupancy, resolution, start, float(start_pose[2]), goal, goal_yaw, **footprint_args(robot),
-            headings=settings.headings, margin_m=settings.margin_m,
-            turn_margin_m=settings.turn_margin_m, cost_weight=settings.cost_weight,
-            inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
-            turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
-            occupied_threshold=settings.occupied_threshold,
-            unknown_is_obstacle=settings.unknown_is_obstacle)
+            occupancy, resolution, start, float(start_pose[2]), goal, goal_yaw,
+            **search_args(robot, settings))
     except ValueError as exc:
         raise PlanningError(str(exc)) from exc
     if not math.isfinite(out["cost"]):
@@ -127,6 +132,24 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
     return LatticePath(poses=np.column_stack([xy, out["yaw"]]), cells=out["cells"],
                        headings=out["heading"], turned=out["turned"], cost=float(out["cost"]),
                        length_m=float(out["length_m"]), turned_rad=float(out["turned_rad"]))
+
+
+def lattice_cost_to_come(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+                         robot: RobotSpec, pose: Sequence[float], settings: LatticeSettings,
+                         snap_radius_m: float = 0.5) -> np.ndarray:
+    """float32 (rows, cols): the cheapest ``plan_lattice`` cost (m) from the robot at ``pose``
+    (x, y, yaw) to each cell, at whichever heading is cheapest; +inf where the lattice finds no
+    path, so a cell is finite exactly when ``plan_lattice`` reaches it. This is where the robot
+    can go: a cell where some heading fits (``footprint_costmap`` < 253) may still be out of
+    reach (a slot it cannot turn into). The robot starts as the navigator does: at every
+    heading that fits where it can turn, else along the line it is on (either way: it backs
+    out), else from the nearest cell within ``snap_radius_m`` where it fits."""
+    settings = settings.with_robot(robot)
+    settings.validate("LatticeSettings")
+    start = geometry.xy_to_cell(pose[:2], resolution, origin)
+    return _native.lattice_cost_to_come(
+        occupancy, resolution, start, float(pose[2]), float(snap_radius_m),
+        **search_args(robot, settings))
 
 
 def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec,

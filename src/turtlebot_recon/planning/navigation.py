@@ -285,20 +285,27 @@ class Navigation:
         gx, gy, gyaw = self.goal
         goal_cell = m.cell(gx, gy)
         # A cell where the robot can turn round first: the lattice never reverses, so a goal in a
-        # narrow dead end (a maze's, a door) would leave it no way out.
-        goal = self._fit(goal_cell, gyaw, headings=len(self._yaws), turnable=True) \
-            or self._fit(goal_cell, gyaw, headings=len(self._yaws))
-        if goal is None:
+        # narrow dead end (a maze's, a door) would leave it no way out. That cell may lie beyond
+        # a thin wall, out of reach: then the goal's own cell (or the nearest that fits).
+        goals = [g for g in (self._fit(goal_cell, gyaw, headings=len(self._yaws), turnable=True),
+                             self._fit(goal_cell, gyaw, headings=len(self._yaws))) if g is not None]
+        if not goals:
             return self._finish("failed", f"goal ({gx:.2f}, {gy:.2f}) is in an obstacle, unknown "
                                           f"space or off the map, with no cell within "
                                           f"{self.s.snap_radius_m} m where the footprint fits")
         # the goal's yaw is pursued where its nearest heading fits on the goal's own cell
         nearest = None if gyaw is None else self._yaws[int(np.argmin(
             np.abs(np.remainder(self._yaws - gyaw + math.pi, 2 * math.pi) - math.pi)))]
-        self.goal_yaw = gyaw if nearest is not None and goal[2] == nearest \
-            and m.cell(goal[0], goal[1]) == goal_cell else None
         try:
-            path = self._lattice(start, goal)
+            for i, goal in enumerate(goals):
+                self.goal_yaw = gyaw if nearest is not None and goal[2] == nearest \
+                    and m.cell(goal[0], goal[1]) == goal_cell else None
+                try:
+                    path = self._lattice(start, goal)
+                    break
+                except PlanningError:
+                    if i == len(goals) - 1 or goals[i + 1] == goal:
+                        raise
         except PlanningError as exc:
             # The robot follows a lattice line only to within a centimetre or so; its own cell
             # may lie just off that line, where the forward-only lattice finds no way on (no
