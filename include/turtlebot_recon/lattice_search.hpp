@@ -6,7 +6,9 @@
 // States: a cell centre and one of K lattice headings (4, 8 or 16). Motion primitives:
 //   forward  one lattice vector along the heading ((1,0), (2,1), (1,1), (1,2), ... for 16):
 //            valid when the box swept along it, padded by margin_m, is clear of obstacle cells
-//            and the cells the centre crosses are known (never reverses);
+//            and the cells the centre crosses are known;
+//   backward one lattice vector back along the heading (when reverse_cost_factor > 0): the
+//            same swept box as the forward move from where it ends;
 //   turn     in place to the next heading either way: valid where the circumscribed disc
 //            (radius + turn_margin_m) and every padded pose are clear (it could turn all the
 //            way round there), or else where the box swept between the two headings, padded
@@ -15,7 +17,9 @@
 // Costs (metres):
 //   forward  L * (1 + cost_weight * mean of the graded costs of the cells entered / 252), the
 //            cost model of grid_search.hpp (one cell entered on a (1,0) or (1,1) move);
-//   turn     |dtheta| * turn_cost_m_per_rad: seconds of turning at cruise speed.
+//   turn     |dtheta| * turn_cost_m_per_rad: seconds of turning at cruise speed;
+//   backward reverse_cost_factor * the forward move's cost over the same cells (>= 1: the
+//            2-D heuristic below stays a lower bound).
 // Graded costs: the costmap convention (costmap.hpp) for the box: 254 obstacle, 255 unknown,
 //   253 where no heading can fit (the nearest obstacle edge nearer than the box's inscribed
 //   radius about base_footprint, plus the margin), below that 252 exp(-k (d - r_in)) out to
@@ -23,8 +27,9 @@
 // Heuristic: the cost-to-go of the forward moves alone over the 2-D grid of cells where some
 //   heading may fit (graded cost < 253), by a Dijkstra from the goal cell, run lazily: it
 //   settles cells only until the one asked about is settled. Every lattice path projects onto
-//   a path of that grid at no more cost, so the heuristic is admissible and consistent; a
-//   cell it never settles cannot reach the goal, and its states are never opened.
+//   a path of that grid at no more cost (a backward move onto the opposite heading's forward
+//   one), so the heuristic is admissible and consistent; a cell it never settles cannot reach
+//   the goal, and its states are never opened. Plus the least turning (least_turn_rad).
 #pragma once
 
 #include <algorithm>
@@ -56,6 +61,7 @@ struct LatticeParams {
   double turn_cost_m_per_rad = 0.325;  // cruise speed / turning speed (m/s per rad/s)
   int occupied_threshold = 65;       // occupancy (0..100) >= this is an obstacle
   bool unknown_is_obstacle = false;  // unknown cells (and off the grid) are obstacles too
+  double reverse_cost_factor = 0.0;  // backward moves cost this x a forward one; 0: none
 };
 
 // Throws std::invalid_argument ("plan_lattice: ...") naming the first bad parameter.
@@ -74,13 +80,16 @@ inline void validate(const LatticeParams& p) {
   if (!finite_at_least(p.inflation_m, 0)) fail("inflation_m must be >= 0");
   if (!finite_at_least(p.cost_scaling_factor, 0)) fail("cost_scaling_factor must be >= 0");
   if (!finite_at_least(p.turn_cost_m_per_rad, 0)) fail("turn_cost_m_per_rad must be >= 0");
+  if (!(p.reverse_cost_factor == 0.0 || (std::isfinite(p.reverse_cost_factor) && p.reverse_cost_factor >= 1.0)))
+    fail("reverse_cost_factor must be 0 (no backward moves) or >= 1");
   if (p.occupied_threshold < 1 || p.occupied_threshold > 100)
     fail("occupied_threshold must be in 1..100, got " + std::to_string(p.occupied_threshold));
 }
 
 struct LatticeState {
   int row, col, heading;
-  bool turned;  // reached from the previous state by turning in place (false for the start)
+  bool turned;    // reached from the previous state by turning in place (false for the start)
+  bool reversed;  // reached from the previous state by a backward move
 };
 
 struct LatticeSeed {  // a start state of cost_to_come and what reaching it costs
@@ -94,6 +103,7 @@ struct LatticePath {
   double cost = std::numeric_limits<double>::infinity();  // metres, as the search counts it
   double length_m = 0.0;             // driven
   double turned_rad = 0.0;           // turned in place
+  double reversed_m = 0.0;           // of length_m, driven backward
   long long expanded = 0;            // states expanded
 };
 
@@ -199,6 +209,7 @@ class LatticeSearch {
       float& best = out[static_cast<size_t>(c.row) * cols_ + c.col];
       best = std::min(best, static_cast<float>(g));
       if (forward_clear(cell, k)) open_state((cell + step_[k]) * K_ + k, g + forward_cost(cell, k));
+      if (backward_clear(cell, k)) open_state((cell - step_[k]) * K_ + k, g + backward_cost(cell, k));
       if (turn_ok(cell, k, 0)) open_state(cell * K_ + (k + 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][0]);
       if (turn_ok(cell, k, 1))
         open_state(cell * K_ + (k + K_ - 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][1]);
@@ -261,7 +272,7 @@ class LatticeSearch {
   }
 
  private:
-  enum Action : std::uint8_t { kStart, kForward, kTurnLeft, kTurnRight };
+  enum Action : std::uint8_t { kStart, kForward, kTurnLeft, kTurnRight, kBackward };
 
   int padded(Cell c) const { return (c.row + pad_) * stride_ + c.col + pad_; }
 
@@ -434,6 +445,18 @@ class LatticeSearch {
     return length_m_[k] + per_cost_unit_[k] * sum;
   }
 
+  // Backward from padded cell `a` along heading k: the forward move from where it ends.
+  bool backward_clear(int a, int k) const {
+    if (p_.reverse_cost_factor <= 0.0) return false;
+    const int b = a - step_[k];
+    return cost_[b] < kInscribedObstacle && forward_clear(b, k);
+  }
+
+  // Its cost: reverse_cost_factor x the forward move's the other way over the same cells.
+  double backward_cost(int a, int k) const {
+    return p_.reverse_cost_factor * forward_cost(a, (k + K_ / 2) % K_);
+  }
+
   // Turning in place at padded cell `a` (memoised: every heading there asks).
   bool turn_clear(int a) {
     if (turn_ok_[a] == kUnchecked) turn_ok_[a] = turn_.clear(obstacle_.data(), a, d2_[a]) ? kYes : kNo;
@@ -490,7 +513,10 @@ class LatticeSearch {
   // k (it turns in place from one to the next), must hold D's direction: it turns at least the
   // angle beta between k and D. Moving forward along k only widens beta, and a turn changes it
   // by no more than the turn, so adding the cost of beta keeps the heuristic consistent; so
-  // does the angle to a required goal heading.
+  // does the angle to a required goal heading. With backward moves the arc's opposites move
+  // too: the bound is the angle between D and k's line, min(beta, pi - beta); admissible, but
+  // a move along the line can narrow it (the search may then miss the cheapest path by a
+  // little, never a path).
   double least_turn_rad(int a, int k) {
     const double yaw = headings_[k].yaw_rad;
     if (std::isnan(bearing_[a])) {  // the direction of D, once per cell
@@ -498,6 +524,7 @@ class LatticeSearch {
       bearing_[a] = a == goal_cell_ ? std::numeric_limits<double>::infinity() : std::atan2(dr, dc);
     }
     double beta = std::isinf(bearing_[a]) ? 0.0 : angle_between(bearing_[a], yaw);
+    if (p_.reverse_cost_factor > 0.0) beta = std::min(beta, kPi - beta);
     if (goal_heading_ >= 0) beta = std::max(beta, angle_between(headings_[goal_heading_].yaw_rad, yaw));
     return beta;
   }
@@ -548,6 +575,8 @@ class LatticeSearch {
       const double g = g_[s];
       if (forward_clear(cell, k))
         open_state((cell + step_[k]) * K_ + k, g + forward_cost(cell, k), kForward);
+      if (backward_clear(cell, k))
+        open_state((cell - step_[k]) * K_ + k, g + backward_cost(cell, k), kBackward);
       const double per_rad = p_.turn_cost_m_per_rad;
       if (turn_ok(cell, k, 0)) open_state(cell * K_ + (k + 1) % K_, g + per_rad * turn_rad_[k][0], kTurnLeft);
       if (turn_ok(cell, k, 1))
@@ -564,11 +593,15 @@ class LatticeSearch {
       const int cell = s / K_, k = s % K_;
       const Action how = static_cast<Action>(action_[s]);
       const Cell c = unpadded(cell);
-      path->states.push_back({c.row, c.col, k, how == kTurnLeft || how == kTurnRight});
+      path->states.push_back({c.row, c.col, k, how == kTurnLeft || how == kTurnRight, how == kBackward});
       if (how == kStart) break;
       if (how == kForward) {
         path->length_m += length_m_[k];
         s = (cell - step_[k]) * K_ + k;
+      } else if (how == kBackward) {
+        path->length_m += length_m_[k];
+        path->reversed_m += length_m_[k];
+        s = (cell + step_[k]) * K_ + k;
       } else {
         const int from = how == kTurnLeft ? (k + K_ - 1) % K_ : (k + 1) % K_;
         path->turned_rad += turn_rad_[from][how == kTurnLeft ? 0 : 1];

@@ -27,7 +27,7 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
                          double margin_m, double turn_margin_m, double cost_weight,
                          double inflation_m, double cost_scaling_factor,
                          double turn_cost_m_per_rad, int occupied_threshold,
-                         bool unknown_is_obstacle) {
+                         bool unknown_is_obstacle, double reverse_cost_factor) {
   const Shape s = grid_shape(occupancy, "plan_lattice", "occupancy");
   if (!std::isfinite(start_yaw) || (goal_yaw && !std::isfinite(*goal_yaw)))
     fail("plan_lattice", "start_yaw and goal_yaw must be finite");
@@ -35,7 +35,7 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
   const tp::LatticeParams params{resolution,   headings,          margin_m,
                                  turn_margin_m, cost_weight,      inflation_m,
                                  cost_scaling_factor, turn_cost_m_per_rad, occupied_threshold,
-                                 unknown_is_obstacle};
+                                 unknown_is_obstacle, reverse_cost_factor};
   tp::LatticePath path;
   std::vector<tp::LatticeHeading> table;
   {
@@ -51,10 +51,12 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
   py::array_t<std::int32_t> heading(n);
   py::array_t<double> yaw(n);
   py::array_t<bool> turned(n);
+  py::array_t<bool> reversed(n);
   auto c = cells.mutable_unchecked<2>();
   auto h = heading.mutable_unchecked<1>();
   auto y = yaw.mutable_unchecked<1>();
   auto t = turned.mutable_unchecked<1>();
+  auto b = reversed.mutable_unchecked<1>();
   for (py::ssize_t i = 0; i < n; ++i) {
     const tp::LatticeState& st = path.states[i];
     c(i, 0) = st.row;
@@ -62,12 +64,15 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
     h(i) = st.heading;
     y(i) = table[st.heading].yaw_rad;
     t(i) = st.turned;
+    b(i) = st.reversed;
   }
   py::dict out;
   out["cells"] = cells;
   out["heading"] = heading;
   out["yaw"] = yaw;
   out["turned"] = turned;
+  out["reversed"] = reversed;
+  out["reversed_m"] = path.reversed_m;
   out["cost"] = path.cost;
   out["length_m"] = path.length_m;
   out["turned_rad"] = path.turned_rad;
@@ -107,7 +112,7 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
                                             double turn_margin_m, double cost_weight,
                                             double inflation_m, double cost_scaling_factor,
                                             double turn_cost_m_per_rad, int occupied_threshold,
-                                            bool unknown_is_obstacle) {
+                                            bool unknown_is_obstacle, double reverse_cost_factor) {
   const Shape s = grid_shape(occupancy, "lattice_cost_to_come", "occupancy");
   if (!std::isfinite(start_yaw)) fail("lattice_cost_to_come", "start_yaw must be finite");
   if (!(std::isfinite(snap_radius_m) && snap_radius_m >= 0))
@@ -116,7 +121,7 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
   const tp::LatticeParams params{resolution,   headings,          margin_m,
                                  turn_margin_m, cost_weight,      inflation_m,
                                  cost_scaling_factor, turn_cost_m_per_rad, occupied_threshold,
-                                 unknown_is_obstacle};
+                                 unknown_is_obstacle, reverse_cost_factor};
   py::array_t<float> out({s.rows, s.cols});
   float* dst = out.mutable_data();
   {
@@ -216,15 +221,19 @@ void register_lattice(py::module_& m) {
         py::arg("cost_weight") = 1.0, py::arg("inflation_m") = 0.35,
         py::arg("cost_scaling_factor") = 5.0, py::arg("turn_cost_m_per_rad") = 0.325,
         py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
+        py::arg("reverse_cost_factor") = 0.0,
         "State-lattice A* over (row, col, heading) on ROS int8 occupancy (-1 unknown, 0..100) for\n"
         "a box footprint (length x width, centre offset_x ahead of base_footprint; length 0: a\n"
         "disc of radius_m). start, goal: (row, col) cells; start_yaw (rad) and goal_yaw (None: any\n"
         "heading) snap to the nearest of `headings` lattice headings. Moves: forward one lattice\n"
         "vector with the swept box (padded by margin_m, measured to obstacle edges) clear; turn in\n"
-        "place where the disc of radius_m + turn_margin_m and every padded pose are clear. Cost\n"
-        "(m): L (1 + cost_weight c / 252) forward, turn_cost_m_per_rad |dtheta| turning.\n"
+        "place where the disc of radius_m + turn_margin_m and every padded pose are clear, or the\n"
+        "box swept to the next heading is; backward one lattice vector (reverse_cost_factor > 0)\n"
+        "where the forward move from its end is valid. Cost (m): L (1 + cost_weight c / 252)\n"
+        "forward, reverse_cost_factor x that backward, turn_cost_m_per_rad |dtheta| turning.\n"
         "Returns a dict: cells int32 (n, 2), heading int32 (n,), yaw float64 (n,) rad, turned bool\n"
-        "(n,) (reached by turning in place), cost, length_m, turned_rad, expanded; n = 0 and cost\n"
+        "(n,) (reached by turning in place), reversed bool (n,) (by a backward move), cost,\n"
+        "length_m, turned_rad, reversed_m, expanded; n = 0 and cost\n"
         "inf when the goal is unreachable. ValueError naming the start or goal when it is off the\n"
         "grid, in an obstacle, in unknown space or its footprint collides.");
   m.def("lattice_cost_to_come", &py_lattice_cost_to_come, py::arg("occupancy"),
@@ -235,7 +244,7 @@ void register_lattice(py::module_& m) {
         py::arg("turn_margin_m") = 0.01, py::arg("cost_weight") = 1.0,
         py::arg("inflation_m") = 0.35, py::arg("cost_scaling_factor") = 5.0,
         py::arg("turn_cost_m_per_rad") = 0.325, py::arg("occupied_threshold") = 65,
-        py::arg("unknown_is_obstacle") = false,
+        py::arg("unknown_is_obstacle") = false, py::arg("reverse_cost_factor") = 0.0,
         "float32 (rows, cols): the cheapest plan_lattice cost (m) from the robot at cell `start`\n"
         "with yaw start_yaw to each cell at its cheapest heading; inf where plan_lattice finds no\n"
         "path. Start states: every heading that fits where the turning disc does (each costing\n"

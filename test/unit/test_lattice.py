@@ -123,7 +123,7 @@ def check_path(path, robot, settings, occ):
     n = len(path.poses)
     assert path.poses.shape == (n, 3) and path.cells.shape == (n, 2) and path.turned.shape == (n,)
     assert not path.turned[0]
-    length = turned = 0.0
+    length = turned = reversed_m = 0.0
     for i in range(n):
         (r, c), k = path.cells[i], int(path.headings[i])
         assert occ[r, c] >= 0, f"pose {i} on unknown cell {(r, c)}"
@@ -148,16 +148,20 @@ def check_path(path, robot, settings, occ):
                         f"turn at pose {i} sweeps the body onto an obstacle at {math.degrees(a):.1f} deg"
             turned += abs(math.remainder(HEADINGS[k][2] - HEADINGS[k0][2], 2 * math.pi))
         else:
-            # one lattice vector forward; the body clear every centimetre along it
+            # one lattice vector forward (or back); the body clear every centimetre along it
             dr, dc, yaw = HEADINGS[k0]
-            assert k == k0 and (r - r0, c - c0) == (dr, dc), f"pose {i} is no forward move"
+            sign = -1 if path.reversed[i] else 1
+            assert k == k0 and (r - r0, c - c0) == (sign * dr, sign * dc), f"pose {i} is no move"
             step = math.hypot(dr, dc) * RES
             length += step
+            reversed_m += step if sign < 0 else 0.0
             x0, y0, _ = path.poses[i - 1]
             for t in np.linspace(0.0, 1.0, int(math.ceil(step / 0.01)) + 1)[1:-1]:
-                pose = (x0 + t * dc * RES, y0 + t * dr * RES, yaw)
+                pose = (x0 + sign * t * dc * RES, y0 + sign * t * dr * RES, yaw)
                 assert body_clearance(robot, pose, cx, cy) >= margin - tiny, f"move to pose {i} collides"
+    assert not (path.turned & path.reversed).any()
     assert math.isclose(path.length_m, length, abs_tol=1e-9)
+    assert math.isclose(path.reversed_m, reversed_m, abs_tol=1e-9)
     assert math.isclose(path.turned_rad, turned, abs_tol=1e-9)
 
 
@@ -328,15 +332,17 @@ def test_burger_passes_the_030_gap():
 def test_turns_where_the_disc_fits_or_the_sweep_clears_l_corridor():
     # The 0.45 m corridor holds the box (0.225 m each side of the middle cell, 0.072 m spare)
     # but not the turning disc (0.257 + 0.01 = 0.267 m > 0.225 m), nor the box turned 45 deg:
-    # the robot turns the 90 degree corner only where the 0.8 m corner room gives it room;
-    # check_path checks the disc or the sweep at every turn.
+    # forward only, the robot turns the 90 degree corner only where the 0.8 m corner room gives
+    # it room; check_path checks the disc or the sweep at every turn.
     start, goal = centre(14, 10), centre(50, 36)[:2]
-    path = lattice(l_corridor(corner_room=True), WAFFLE, start, goal)
+    path = lattice(l_corridor(corner_room=True), WAFFLE, start, goal, reverse_speed_mps=0.0)
     turns = path.cells[path.turned]
     assert len(turns) >= 4            # four 22.5 deg-ish steps make the 90 degrees
     assert path.turned_rad == pytest.approx(math.pi / 2)
-    with pytest.raises(PlanningError, match="unreachable"):
-        lattice(l_corridor(corner_room=False), WAFFLE, start, goal)
+    assert not path.reversed.any()
+    # with backward moves allowed, the room's plan needs none of them
+    again = lattice(l_corridor(corner_room=True), WAFFLE, start, goal)
+    assert not again.reversed.any() and again.cost == pytest.approx(path.cost)
 
 
 def test_a_box_squares_up_in_a_corridor_too_narrow_for_its_disc():
@@ -449,22 +455,39 @@ def reach(occ, robot, pose, snap_radius_m=0.5):
 
 @pytest.mark.parametrize("corner_room", [False, True])
 def test_cost_to_come_is_where_the_lattice_goes_not_where_the_box_fits(corner_room):
-    # Without the corner room the north leg holds the box at heading 90 deg (the costmap says
-    # some heading fits there) but the robot coming along the east leg cannot turn into it: the
-    # explorer must not count a frontier there as reachable. With the room it turns there.
+    # Forward only: without the corner room the north leg holds the box at heading 90 deg (the
+    # costmap says some heading fits there) but the robot coming along the east leg cannot turn
+    # into it: the explorer must not count a frontier there as reachable. With the room it turns
+    # there.
     occ = l_corridor(corner_room)
     start = centre(14, 10)
-    field = reach(occ, WAFFLE, start)
-    costmap = footprint_costmap(occ, RES, WAFFLE, LatticeSettings.for_robot(WAFFLE))
+    forward_only = LatticeSettings.for_robot(WAFFLE, reverse_speed_mps=0.0)
+    field = lattice_cost_to_come(occ, RES, ORIGIN, WAFFLE, start, forward_only)
+    costmap = footprint_costmap(occ, RES, WAFFLE, forward_only)
     assert costmap[50, 36] < 253 and costmap[30, 36] < 253
     assert np.isfinite(field[14, 10:37]).all()
     assert (field[14, 10] == 0.0)
     if corner_room:
-        path = lattice(occ, WAFFLE, start, centre(50, 36)[:2])
+        path = lattice(occ, WAFFLE, start, centre(50, 36)[:2], reverse_speed_mps=0.0)
         assert field[50, 36] == pytest.approx(path.cost, rel=1e-5)
     else:
         assert np.isinf(field[30:56, 32:41]).all()
     assert np.isinf(field[occ >= 65]).all()
+
+
+def test_backward_moves_take_the_box_round_a_corner_it_cannot_turn_in():
+    # The same 0.45 m corner without its room: no turn in place of 90 deg fits there, but a
+    # multi-point turn does (forward and back, turning partway where the sweep clears), and
+    # the field counts the north leg as reachable where plan_lattice reaches it that way.
+    occ = l_corridor(corner_room=False)
+    start, goal = centre(14, 10), centre(50, 36)
+    with pytest.raises(PlanningError, match="unreachable"):
+        lattice(occ, WAFFLE, start, goal[:2], reverse_speed_mps=0.0)
+    path = lattice(occ, WAFFLE, start, goal[:2])
+    assert path.reversed.any() and path.reversed_m > 0
+    assert path.cost >= path.length_m + path.reversed_m * (0.26 / 0.1 - 1) - 1e-6
+    field = reach(occ, WAFFLE, start)
+    assert field[50, 36] == pytest.approx(path.cost, rel=1e-5)
 
 
 @pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)

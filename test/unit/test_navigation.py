@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from turtlebot_recon import _native
-from turtlebot_recon.planning import (CostmapSettings, PlannerSettings, PlanningError,
-                                      footprint_clear, make_costmap, plan)
+from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
+                                      PlanningError, footprint_clear, make_costmap, plan,
+                                      plan_lattice)
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
@@ -230,6 +231,28 @@ def test_a_goal_whose_turnable_cell_lies_beyond_a_thin_wall_is_reached_on_its_ow
     poses, _ = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
     assert nav.status == "succeeded", nav.reason
     assert math.dist(poses[-1][:2], (3.0, 0.725)) < 0.15
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+
+
+def test_squares_up_off_a_wall_it_cannot_turn_beside():
+    # The waffle_pi facing north with its side 0.072 m off a long wall (centre 0.225 m from
+    # it), open floor to the west: turning left would swing its rear (0.2 m behind the wheels)
+    # into the wall, the disc fits nowhere near, and driving on keeps it beside the wall. The
+    # forward-only lattice has no way west; with backward moves the navigator turns partway
+    # right, backs off south-west, and drives to the goal; the body never comes within 5 mm.
+    occ = np.full((60, 60), 100, np.int8)
+    occ[1:59, 1:40] = 0                        # the room; its east wall starts at x = 2.0
+    start = (2.0 - 0.225, 1.0, math.pi / 2)
+    forward_only = LatticeSettings.for_robot(WAFFLE, reverse_speed_mps=0.0)
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan_lattice(occ, RES, (0.0, 0.0), WAFFLE, start, (0.5, 1.5), forward_only)
+    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(0.5, 1.5)
+    poses, commands = drive_robot(nav, WAFFLE, occ, start, 90.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.dist(poses[-1][:2], (0.5, 1.5)) < 0.15
+    assert any(v < 0 for _, (v, w) in commands)
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
 
 

@@ -2,10 +2,12 @@
 
 The 2-D planner (``costmap.plan``) checks the robot's centre against a costmap inflated by the
 turning disc, so a box robot is shut out of every gap narrower than that disc. This one plans
-over (row, col, heading) (include/turtlebot_recon/lattice_search.hpp): forward moves along the
-heading whose swept box, padded by ``margin_m``, stays clear of the obstacle cells' squares,
-and turns in place only where the turning disc fits. A round robot's box is its disc: headings
-never matter to its collisions and it turns wherever it stands.
+over (row, col, heading) (include/turtlebot_recon/lattice_search.hpp): forward and backward
+moves along the heading whose swept box, padded by ``margin_m``, stays clear of the obstacle
+cells' squares, and turns in place where the turning disc fits or the box's sweep to the next
+heading does. Backward moves are slower (``reverse_speed_mps``) and cost as much more: the
+way out of a dead end, or off a wall the box cannot turn beside. A round robot's box is its
+disc: headings never matter to its collisions and it turns wherever it stands.
 
 Grids are row-major ``(rows, cols)`` with row 0 at the smallest y; poses are (x, y, yaw) in
 metres and radians in the grid's frame (``origin`` is the (x, y) of cell (0, 0)'s corner).
@@ -41,6 +43,8 @@ class LatticeSettings:
                                        # robot's (with_robot)
     occupied_threshold: int = 65       # occupancy (0..100) >= this is an obstacle (map_server)
     unknown_is_obstacle: bool = False  # unknown cells collide with the body (never entered anyway)
+    reverse_speed_mps: float = 0.1     # backward moves, driven this fast: they cost the forward
+                                       # move's distance x cruise / this; 0: forward only
 
     def validate(self, src: str) -> None:
         require(self.headings in (4, 8, 16), src, "headings", "must be 4, 8 or 16")
@@ -50,6 +54,7 @@ class LatticeSettings:
             require(value >= 0, src, key, "must be > 0, or 0 for the robot's")
         require(self.turn_margin_m >= 0, src, "turn_margin_m", "must be >= 0")
         require(self.cost_weight >= 0, src, "cost_weight", "must be >= 0")
+        require(self.reverse_speed_mps >= 0, src, "reverse_speed_mps", "must be >= 0 (0: forward only)")
         require(self.inflation_m >= 0, src, "inflation_m", "must be >= 0")
         require(self.cost_scaling_factor >= 0, src, "cost_scaling_factor", "must be >= 0")
         require(isinstance(self.occupied_threshold, int) and 1 <= self.occupied_threshold <= 100,
@@ -60,6 +65,14 @@ class LatticeSettings:
         """Metres charged per radian turned in place: the cruise distance lost while turning
         (the speeds must be set: ``with_robot``)."""
         return self.cruise_speed_mps / self.turn_speed_radps
+
+    @property
+    def reverse_cost_factor(self) -> float:
+        """A backward move's cost per forward metre: cruise / reverse speed (at least 1, the
+        search's bound); 0 without backward moves (the speeds must be set: ``with_robot``)."""
+        if self.reverse_speed_mps <= 0:
+            return 0.0
+        return max(1.0, self.cruise_speed_mps / self.reverse_speed_mps)
 
     def with_robot(self, robot: RobotSpec) -> "LatticeSettings":
         """These settings with the speeds left 0 taken from ``robot``: its top speed, and its
@@ -80,9 +93,11 @@ class LatticePath:
     cells: np.ndarray        # int32 (n, 2): (row, col)
     headings: np.ndarray     # int32 (n,): lattice heading index
     turned: np.ndarray       # bool (n,): reached from the previous pose by turning in place
+    reversed: np.ndarray     # bool (n,): reached from the previous pose by a backward move
     cost: float              # the search's cost (m): driven + graded + turning
     length_m: float          # driven
     turned_rad: float        # turned in place (costs settings.turn_cost_m_per_rad per radian)
+    reversed_m: float        # of length_m, driven backward
 
 
 def footprint_args(robot: RobotSpec) -> dict:
@@ -102,7 +117,8 @@ def search_args(robot: RobotSpec, settings: LatticeSettings) -> dict:
                 inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
                 turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
                 occupied_threshold=settings.occupied_threshold,
-                unknown_is_obstacle=settings.unknown_is_obstacle)
+                unknown_is_obstacle=settings.unknown_is_obstacle,
+                reverse_cost_factor=settings.reverse_cost_factor)
 
 
 def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
@@ -130,8 +146,9 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
                             f"{robot.name}'s footprint")
     xy = geometry.cells_to_points(out["cells"], resolution, origin)
     return LatticePath(poses=np.column_stack([xy, out["yaw"]]), cells=out["cells"],
-                       headings=out["heading"], turned=out["turned"], cost=float(out["cost"]),
-                       length_m=float(out["length_m"]), turned_rad=float(out["turned_rad"]))
+                       headings=out["heading"], turned=out["turned"], reversed=out["reversed"],
+                       cost=float(out["cost"]), length_m=float(out["length_m"]),
+                       turned_rad=float(out["turned_rad"]), reversed_m=float(out["reversed_m"]))
 
 
 def lattice_cost_to_come(occupancy: np.ndarray, resolution: float, origin: Sequence[float],

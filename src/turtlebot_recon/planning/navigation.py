@@ -2,13 +2,15 @@
 replanning, a path controller.
 
 The navigator node feeds it maps, poses and time. It plans with the state lattice
-(``planning.lattice``: forward moves whose swept box is clear, turns in place only where the
-turning disc fits; for a round robot the box is its disc, so one code path serves every robot),
-replans when the map changes under the planned poses, when the controller reports the way
-blocked, and every ``replan_period_s`` (the map grows while exploring), and hands the path to a
-controller with the ``control.Controller`` contract: the robot's position, then the end of every
-straight run of the lattice path (the corners where it turns in place), the goal last. Nothing
-here blocks.
+(``planning.lattice``: forward and backward moves whose swept box is clear, turns in place
+where the turning disc or the box's sweep fits; for a round robot the box is its disc, so one
+code path serves every robot), replans when the map changes under the planned poses, when the
+controller reports the way blocked, and every ``replan_period_s`` (the map grows while
+exploring), and hands the path to a controller with the ``control.Controller`` contract: the
+robot's position, then the end of every straight run of the lattice path (the corners where it
+turns in place), the goal last. A plan that drives backward somewhere is followed forward to
+that cusp; one that starts backward is a manoeuvre the navigator drives itself (turn in place
+to the run's heading, back straight along it), then it plans again. Nothing here blocks.
 """
 from __future__ import annotations
 
@@ -38,14 +40,11 @@ class NavigationSettings:
                                          # (one report per map counts): fail
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
-    reverse_speed_mps: float = 0.1       # backing straight out of a place the robot cannot turn in
-                                         # (the lattice never reverses), to where it can
     lattice: LatticeSettings = field(default_factory=LatticeSettings)
     follower: FollowerSettings = field(default_factory=FollowerSettings)
 
     def validate(self, src: str) -> None:
-        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m",
-                 "reverse_speed_mps")
+        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
         require(self.max_blocked_replans >= 1, src, "max_blocked_replans", "must be >= 1")
 
 
@@ -68,15 +67,17 @@ class MapView:
 
 
 def run_ends(path: LatticePath) -> np.ndarray:
-    """Indices of the poses that end a straight run (reached forward, followed by a turn in place
-    or by nothing): the corners of the path, and its last pose."""
+    """Indices of the poses that end a straight run (reached forward, followed by a turn in place,
+    a backward move or by nothing): the corners of the path, and its last pose."""
     n = len(path.turned)
     forward = np.zeros(n, bool)
-    forward[1:] = ~path.turned[1:]
-    followed_by_turn = np.append(path.turned[1:], True)
-    return np.flatnonzero(forward & followed_by_turn)
+    forward[1:] = ~path.turned[1:] & ~path.reversed[1:]
+    followed = np.append(path.turned[1:] | path.reversed[1:], True)
+    return np.flatnonzero(forward & followed)
 
 
+BACK_ALIGN_RAD = 0.05  # a backward run starts once the heading is this close to the run's: it
+                       # drifts 1.5 cm sideways over 0.3 m
 ANCHOR_AHEAD_M = 0.25   # a replan continues the plan from this far ahead of the robot (about
                         # the follower's shortest look-ahead): a first leg that long points
                         # along the plan to within a few degrees
@@ -97,7 +98,9 @@ class Navigation:
         self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
         self.controller = PurePursuit(settings.follower, robot)
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
-        self.backing: Optional[np.ndarray] = None     # (x, y) to back straight out to, or None
+        self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
+        self._cusp = False                            # path_xy ends where the plan reverses
+        self._backed_m = 0.0                          # backed so far in this manoeuvre
         self.map: Optional[MapView] = None
         self.status, self.reason = "idle", ""
         self.goal: Optional[tuple] = None            # (x, y, yaw or None)
@@ -156,6 +159,10 @@ class Navigation:
             occupancy=m.occupancy, costmap=m.costmap, resolution=m.resolution, origin=m.origin))
         self.last_output = out
         if out.status == "arrived":
+            if self._cusp:                       # where the plan backs: plan the manoeuvre
+                self._need_plan = True
+                self._clear_path()
+                return 0.0, 0.0
             self._finish("succeeded", "arrived")
             return 0.0, 0.0
         if out.status in ("blocked", "no_path"):
@@ -275,18 +282,19 @@ class Navigation:
                 return float(xy[0, 0]), float(xy[0, 1]), float(poses[int(np.argmax(fits)), 2])
         return self._fit(m.cell(x, y), yaw, headings=0)
 
-    def _plan(self, pose: tuple, now_s: float) -> bool:
+    def _plan(self, pose: tuple, now_s: float, anchored: bool = True) -> bool:
         m = self.map
         self._planned_at, self._need_plan = now_s, False
-        start = self._anchor(pose) or self._start(pose)
+        anchor = self._anchor(pose) if anchored else None
+        start = anchor or self._start(pose)
         if start is None:
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
                                           f"({pose[0]:.2f}, {pose[1]:.2f}) where its footprint fits")
         gx, gy, gyaw = self.goal
         goal_cell = m.cell(gx, gy)
-        # A cell where the robot can turn round first: the lattice never reverses, so a goal in a
-        # narrow dead end (a maze's, a door) would leave it no way out. That cell may lie beyond
-        # a thin wall, out of reach: then the goal's own cell (or the nearest that fits).
+        # A cell where the robot can turn round first (a goal in a narrow dead end, a maze's or a
+        # door's, would leave it only the way out backwards). That cell may lie beyond a thin
+        # wall, out of reach: then the goal's own cell (or the nearest that fits).
         goals = [g for g in (self._fit(goal_cell, gyaw, headings=len(self._yaws), turnable=True),
                              self._fit(goal_cell, gyaw, headings=len(self._yaws))) if g is not None]
         if not goals:
@@ -308,66 +316,87 @@ class Navigation:
                         raise
         except PlanningError as exc:
             # The robot follows a lattice line only to within a centimetre or so; its own cell
-            # may lie just off that line, where the forward-only lattice finds no way on (no
-            # room to turn there). While the plan it follows is still clear, keep to it: the
-            # next replan starts from a lattice pose of it again.
+            # may lie just off that line, where the lattice finds no way on (no room to turn
+            # there). While the plan it follows is still clear, keep to it: the next replan
+            # starts from a lattice pose of it again.
             if len(self.path_poses) and self._poses_clear(self.path_poses).all():
                 return True
-            if self._back_out(pose, start):
-                return True
             return self._finish("failed", str(exc))
+        moving = np.flatnonzero(~path.turned[1:]) + 1           # poses reached by driving
+        backward = np.flatnonzero(path.reversed)
+        if moving.size and path.reversed[moving[0]]:
+            if anchor is not None:            # a manoeuvre starts where the robot is
+                return self._plan(pose, now_s, anchored=False)
+            return self._manoeuvre(path, int(moving[0]))
+        # forward to the end, or to the cusp where it starts backing (turns there included)
+        last = len(path.poses) - 1
+        if backward.size:
+            last = int(moving[moving < backward[0]][-1])
+        self._cusp = last < len(path.poses) - 1
         self.plan = path
         robot_xy = np.array([[pose[0], pose[1]]])
         snapped = m.cell(pose[0], pose[1]) != m.cell(start[0], start[1])
         points = [robot_xy, path.poses[:1, :2]] if snapped else [robot_xy]
         ends = run_ends(path)
-        if ends.size == 0 or ends[-1] != len(path.poses) - 1:
-            ends = np.append(ends, len(path.poses) - 1)
+        ends = ends[ends <= last]
+        if ends.size == 0 or ends[-1] != last:
+            ends = np.append(ends, last)
         points.append(path.poses[ends, :2])
         self.path_xy = np.vstack(points)
-        self.path_poses = path.poses
+        self.path_poses = path.poses[:last + 1]
+        if self._cusp:
+            self.goal_yaw = None
         return True
 
-    def _back_out(self, pose: tuple, start: tuple) -> bool:
-        """Trapped: no forward way from ``start`` (a dead end, a door, too narrow to turn). If
-        the lattice finds a way from the opposite heading there, its first straight run is the
-        way out backwards: back along it (``backing``) to where it turns, then plan again."""
-        m = self.map
-        back = (start[0], start[1], start[2] + math.pi)
-        try:
-            path = plan_lattice(m.occupancy, m.resolution, m.origin, self.robot, back,
-                                self.goal[:2], self.lattice)
-        except PlanningError:
-            return False
-        ends = run_ends(path)
-        if ends.size == 0 or path.turned[1:ends[0] + 1].any():
-            return False
+    def _manoeuvre(self, path: LatticePath, first: int) -> bool:
+        """The plan starts backward at pose ``first`` (after turns in place): turn to that run's
+        heading, back straight to its end (``backing``), then plan again."""
+        run = first
+        while run + 1 < len(path.poses) and path.reversed[run + 1]:
+            run += 1
         self._clear_path()
-        self.backing = path.poses[ends[0], :2].copy()
+        self.backing = np.array([path.poses[run, 0], path.poses[run, 1], path.poses[first, 2]])
         return True
 
     def _back(self, pose: tuple) -> tuple:
-        """One period of backing straight out (heading kept): (-reverse_speed_mps, 0) while the
-        body stays clear behind, until level with ``backing``; then plan again."""
+        """One period of the backward manoeuvre: turn in place to its heading (the box's sweep
+        checked, at the follower's turning rate), then back straight (heading kept) at the
+        lattice's reverse_speed_mps while the body stays clear behind, until level with its end;
+        then plan again."""
         m = self.map
         x, y, yaw = (float(v) for v in pose[:3])
-        to_go = -((self.backing[0] - x) * math.cos(yaw) + (self.backing[1] - y) * math.sin(yaw))
-        if to_go <= 0.01:
-            self.backing, self._need_plan = None, True
-            return 0.0, 0.0
-        margin = self.s.follower.collision_margin_m
-        d = np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
-        poses = np.column_stack([x - d * math.cos(yaw), y - d * math.sin(yaw), np.full(len(d), yaw)])
+        bx, by, byaw = (float(v) for v in self.backing)
         inp = ControlInput(now_s=0.0, pose=pose, velocity=(0.0, 0.0), path=np.zeros((0, 2)),
                            goal_yaw=None, occupancy=m.occupancy, costmap=m.costmap,
                            resolution=m.resolution, origin=m.origin)
+        to_go = math.hypot(bx - x, by - y)
+        # facing away from the run's end, so backing straight ends on it (the robot starts up
+        # to half a cell off the lattice line; the next turn in place is planned at its end)
+        want = math.atan2(y - by, x - bx) if to_go > 0.02 else byaw
+        err = geometry.wrap_angle(want - yaw)
+        if abs(err) > BACK_ALIGN_RAD and self._backed_m == 0.0:
+            if not self.body.turn_clear(inp, pose, err):
+                self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): turning to back out "
+                                       f"would hit an obstacle")
+                return 0.0, 0.0
+            f = self.s.follower
+            top = min(f.rotate_speed_max_radps, self.robot.max_angular_radps)
+            return 0.0, math.copysign(min(top, max(f.rotate_speed_min_radps, f.rotate_gain_per_s * abs(err))), err)
+        to_go = -((bx - x) * math.cos(yaw) + (by - y) * math.sin(yaw))
+        if to_go <= 0.01:
+            self.backing, self._need_plan, self._backed_m = None, True, 0.0
+            return 0.0, 0.0
+        self._backed_m += min(self.lattice.reverse_speed_mps, to_go) / self.s.controller_rate_hz
+        margin = self.s.follower.collision_margin_m
+        d = np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
+        poses = np.column_stack([x - d * math.cos(yaw), y - d * math.sin(yaw), np.full(len(d), yaw)])
         clearance = self.body.clearance(inp, poses, margin)
         if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
-            self.backing = None
-            self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): no way on forward, and "
-                                   f"backing out would hit an obstacle")
+            self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): backing out would hit an "
+                                   f"obstacle")
             return 0.0, 0.0
-        return -min(self.s.reverse_speed_mps, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
+        speed = self.lattice.reverse_speed_mps
+        return -min(speed, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
 
     def _lattice(self, start: tuple, goal: tuple) -> LatticePath:
         """The lattice plan start -> goal, at the goal's yaw if it is pursued and reachable."""
@@ -382,6 +411,8 @@ class Navigation:
 
     def _clear_path(self) -> None:
         self.backing = None
+        self._cusp = False
+        self._backed_m = 0.0
         self.path_xy = np.zeros((0, 2))
         self.path_poses = np.zeros((0, 3))
         self.plan = None
