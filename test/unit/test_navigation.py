@@ -256,13 +256,30 @@ def test_squares_up_off_a_wall_it_cannot_turn_beside():
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
 
 
+def test_a_plan_that_backs_into_place_is_followed_to_its_cusp_then_backed():
+    # The same dead end; the goal at its far end facing out (west). The plan drives east to the
+    # room's edge, turns round where the disc fits and backs in: the follower takes the robot
+    # to that cusp (replanning on the way from poses of the plan), the navigator backs it in.
+    occ = room()
+    occ[:, 38:] = 100
+    occ[26:35, 38:60] = 0
+    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(2.6, 1.525, math.pi)
+    poses, commands = drive_robot(nav, WAFFLE, occ, (0.6, 1.525, 0.0), 120.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.dist(poses[-1][:2], (2.6, 1.525)) < 0.15
+    assert abs(math.remainder(poses[-1][2] - math.pi, 2 * math.pi)) < 0.2
+    assert any(v < 0.0 for _, (v, _) in commands) and any(v > 0.1 for _, (v, _) in commands)
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+
+
 def test_backs_out_of_a_dead_end_it_cannot_turn_in():
     # A 0.45 m dead-end corridor (x in [2.0, 3.0), y in [1.3, 1.75)) off the room's east wall
     # (the room ends at x = 1.9 here): the box fits it, the turning disc does not. The robot
-    # stands in it facing the dead end; the goal is back in the room. The lattice never
-    # reverses, so no forward plan exists; from the opposite heading one does, whose first
-    # straight run leads out to where the disc fits: the robot backs along it (-0.1 m/s, body
-    # checked), then turns and drives to the goal, never nearer than 5 mm to a wall.
+    # stands in it facing the dead end; the goal is back in the room. No forward plan exists;
+    # the plan backs out to where the disc fits (-0.1 m/s, body checked), then turns and drives
+    # to the goal, never nearer than 5 mm to a wall.
     occ = room()
     occ[:, 38:] = 100
     occ[26:35, 38:60] = 0                     # y in [1.30, 1.75), x in [1.9, 3.0)

@@ -99,6 +99,7 @@ class Navigation:
         self.controller = PurePursuit(settings.follower, robot)
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
+        self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
         self._cusp = False                            # path_xy ends where the plan reverses
         self._backed_m = 0.0                          # backed so far in this manoeuvre
         self.map: Optional[MapView] = None
@@ -159,10 +160,12 @@ class Navigation:
             occupancy=m.occupancy, costmap=m.costmap, resolution=m.resolution, origin=m.origin))
         self.last_output = out
         if out.status == "arrived":
-            if self._cusp:                       # where the plan backs: plan the manoeuvre
-                self._need_plan = True
-                self._clear_path()
-                return 0.0, 0.0
+            if self._cusp:                       # near where the plan backs: its manoeuvre
+                plan = self.plan
+                first = int(np.flatnonzero(plan.reversed)[0])
+                self._manoeuvre(plan, first)
+                self.approach = plan.poses[first - 1, :2].copy()   # the follower stops 0.1 m short
+                return self._back(pose)
             self._finish("succeeded", "arrived")
             return 0.0, 0.0
         if out.status in ("blocked", "no_path"):
@@ -251,7 +254,9 @@ class Navigation:
             return None
         ahead = ((P[:, 0] - xy[0]) * np.cos(P[:, 2]) + (P[:, 1] - xy[1]) * np.sin(P[:, 2]))
         ends = np.zeros(len(P), bool)
-        ends[run_ends(self.plan)] = True
+        stops = run_ends(self.plan)
+        ends[stops[stops < len(P)]] = True            # P ends at the cusp, if the plan backs
+        ends[-1] = True
         ok = (np.arange(len(P)) >= i) & (ahead > 0.5 * res) & ((ahead >= ANCHOR_AHEAD_M) | ends)
         j = np.flatnonzero(ok)
         if j.size == 0 or not self._poses_clear(P[i:j[0] + 1]).all():
@@ -291,6 +296,13 @@ class Navigation:
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
                                           f"({pose[0]:.2f}, {pose[1]:.2f}) where its footprint fits")
         gx, gy, gyaw = self.goal
+        if math.hypot(gx - pose[0], gy - pose[1]) <= self.s.follower.xy_goal_tolerance_m:
+            # there already (a manoeuvre may end at the goal, a lattice line beside its cell):
+            # the follower only turns to the goal's yaw
+            self._clear_path()
+            self.goal_yaw = gyaw
+            self.path_xy = np.array([[pose[0], pose[1]], [gx, gy]])
+            return True
         goal_cell = m.cell(gx, gy)
         # A cell where the robot can turn round first (a goal in a narrow dead end, a maze's or a
         # door's, would leave it only the way out backwards). That cell may lie beyond a thin
@@ -359,9 +371,10 @@ class Navigation:
         return True
 
     def _back(self, pose: tuple) -> tuple:
-        """One period of the backward manoeuvre: turn in place to its heading (the box's sweep
-        checked, at the follower's turning rate), then back straight (heading kept) at the
-        lattice's reverse_speed_mps while the body stays clear behind, until level with its end;
+        """One period of the backward manoeuvre: drive straight on to its cusp (``approach``,
+        when the follower stopped short of it), turn in place to its heading (the box's sweep
+        checked, at the follower's turning rate), then back straight (heading kept), both at
+        the lattice's reverse_speed_mps while the body stays clear, until level with its end;
         then plan again."""
         m = self.map
         x, y, yaw = (float(v) for v in pose[:3])
@@ -369,6 +382,11 @@ class Navigation:
         inp = ControlInput(now_s=0.0, pose=pose, velocity=(0.0, 0.0), path=np.zeros((0, 2)),
                            goal_yaw=None, occupancy=m.occupancy, costmap=m.costmap,
                            resolution=m.resolution, origin=m.origin)
+        if self.approach is not None:
+            ahead = (self.approach[0] - x) * math.cos(yaw) + (self.approach[1] - y) * math.sin(yaw)
+            if ahead > 0.01:
+                return self._straight(inp, pose, ahead, +1)
+            self.approach = None
         to_go = math.hypot(bx - x, by - y)
         # facing away from the run's end, so backing straight ends on it (the robot starts up
         # to half a cell off the lattice line; the next turn in place is planned at its end)
@@ -387,16 +405,23 @@ class Navigation:
             self.backing, self._need_plan, self._backed_m = None, True, 0.0
             return 0.0, 0.0
         self._backed_m += min(self.lattice.reverse_speed_mps, to_go) / self.s.controller_rate_hz
+        return self._straight(inp, pose, to_go, -1)
+
+    def _straight(self, inp: ControlInput, pose: tuple, to_go: float, sign: int) -> tuple:
+        """(v, 0) driving straight forward (sign +1) or back (-1) at reverse_speed_mps, at most
+        ``to_go`` m, while the body keeps the follower's margin (or gets no nearer) over the
+        next 0.1 m; else the goal fails: trapped."""
+        x, y, yaw = (float(v) for v in pose[:3])
         margin = self.s.follower.collision_margin_m
-        d = np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
-        poses = np.column_stack([x - d * math.cos(yaw), y - d * math.sin(yaw), np.full(len(d), yaw)])
+        d = sign * np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
+        poses = np.column_stack([x + d * math.cos(yaw), y + d * math.sin(yaw), np.full(len(d), yaw)])
         clearance = self.body.clearance(inp, poses, margin)
         if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
-            self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): backing out would hit an "
-                                   f"obstacle")
+            way = "backing" if sign < 0 else "driving on to where it backs"
+            self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): {way} would hit an obstacle")
             return 0.0, 0.0
         speed = self.lattice.reverse_speed_mps
-        return -min(speed, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
+        return sign * min(speed, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
 
     def _lattice(self, start: tuple, goal: tuple) -> LatticePath:
         """The lattice plan start -> goal, at the goal's yaw if it is pursued and reachable."""
@@ -410,7 +435,7 @@ class Navigation:
         return plan_lattice(*args)
 
     def _clear_path(self) -> None:
-        self.backing = None
+        self.backing = self.approach = None
         self._cusp = False
         self._backed_m = 0.0
         self.path_xy = np.zeros((0, 2))

@@ -1,0 +1,30 @@
+"""rospy.Timer for node loops that may be shut down at any moment.
+
+A run ends when the evaluator says so (a budget, a coverage reached), while the other nodes are
+still driving: a timer callback then meets a closed publisher or an interrupted sleep
+(``rospy.ROSException``) on its own thread, and rospy prints the traceback and ends that thread.
+``Timer`` ends quietly in that case only; any other exception, or one before shutdown, still
+propagates (a bug must show).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import rospy
+
+
+def quiet_on_shutdown(callback: Callable) -> Callable:
+    """``callback`` that returns instead of raising rospy.ROSException once ROS is shutting down."""
+    def run(*args, **kwargs):
+        try:
+            return callback(*args, **kwargs)
+        except rospy.ROSException:
+            if rospy.is_shutdown():
+                return None
+            raise
+    return run
+
+
+def Timer(period_s: float, callback: Callable) -> rospy.Timer:
+    """``rospy.Timer(rospy.Duration(period_s), callback)``, quiet on shutdown."""
+    return rospy.Timer(rospy.Duration(period_s), quiet_on_shutdown(callback))
