@@ -20,7 +20,7 @@ all swept by default; the table and the target figures are reported for each set
 (QUICK_STRATEGIES on QUICK_WORLDS, one seed) and says so in the plan line and in "quick".
 
 Budgets (sim seconds) follow benchmark.budget_s of each world's free area (WORLD_BUDGETS for the
-maze) unless --budget (all worlds) or --budgets world=s,... is given. A budget costs time only
+maze, the depot and the office) unless --budget (all worlds) or --budgets world=s,... is given. A budget costs time only
 in the runs that never finish (a stuck baseline drives until it); the runs that finish end on
 their own; the reference strategies (every one but recon) end at REFERENCE_STOP_COVERAGE, as
 only their time and distance to 99 % are compared. The robot is the waffle_pi unless --robot
@@ -65,8 +65,12 @@ ROBOT = "turtlebot3_waffle_pi"     # every world (the lattice takes its box thro
 # and distance to 99 % are compared, and a baseline's last 1 % can take as long as the rest.
 REFERENCE_STOP_COVERAGE = 0.99
 # Budgets (sim s) other than the free-area rule: a maze is all corridor, driven end to end and
-# back, far more per m^2 than the rooms the rule was set on (the burger needs ~900 s to 99 %).
-WORLD_BUDGETS = {"maze": 1800.0}
+# back, far more per m^2 than the rooms the rule was set on (~900 s to 99 %). The depot and the
+# office, where the rule gives 3,900 and 5,040 s: 4x and 2.3x the oracle's time to 99 % (451 and
+# 1,187 s, sweep of 2026-11-30); every recon and density run there reached 99 % inside them, and
+# a baseline that has not by then cannot be the best one. A run stuck until the rule's budget
+# cost 10-14 min of wall time there.
+WORLD_BUDGETS = {"maze": 1800.0, "depot": 1800.0, "office": 2700.0}
 # --quick: for iteration, the default and the omniscient reference, one seed, on two tuning
 # worlds and the held-out ones: 8 runs of 30-60 s of wall time each on one core. The office
 # would add ~6 min (WORLDS=house,arena,office,garden,doors with QUICK=1 adds it).
