@@ -366,6 +366,16 @@ def test_free_space_is_the_last_cycles_passable_known_space():
     assert not run.ex.free_space(5.0, 1.0)            # off the map
 
 
+def test_free_space_is_where_the_navigator_reaches():
+    # A wall across the strip at column 40 (x = 2.0 m) with no gap: the far side is known free
+    # and the burger fits there, but the navigator cannot get there; the supervisor must not
+    # nudge or go home there.
+    run = Run(grid=with_wall(40))
+    run.tick()
+    assert run.ex.free_space(1.8, 1.0) and not run.ex.free_space(2.3, 1.0)
+    assert run.ex.ctx.costmap[run.ex.ctx.xy_to_cell((2.3, 1.0))] < INSCRIBED
+
+
 def test_status_line_names_state_goal_and_cycle_times():
     run = Run()
     run.until_goal()

@@ -274,12 +274,14 @@ class Explorer:
         return out
 
     def free_space(self, x: float, y: float) -> bool:
-        """(x, y) known free and clear of the inscribed band in the last cycle's costmap."""
+        """(x, y) a place the robot fits and the navigator reaches, as of the last cycle (the
+        lattice's field finite there): the supervisor's nudges and the way home."""
         ctx = self.ctx
         if ctx is None:
             return False
         r, c = ctx.xy_to_cell((x, y))
-        return bool(inside(r, c, ctx.costmap.shape)) and ctx.costmap[r, c] < INSCRIBED
+        return (bool(inside(r, c, ctx.costmap.shape)) and ctx.costmap[r, c] < INSCRIBED
+                and bool(np.isfinite(ctx.cost_to_come[r, c])))
 
     # ------------------------------------------------------------- navigator results
     def _nav_results(self, now: float, pose: tuple, events: Sequence[NavEvent]) -> None:
