@@ -465,9 +465,8 @@ class Explorer:
         ctx = self.ctx
         if ctx is None or (v == 0.0 and w == 0.0):
             return Velocity(v, w)
-        for lin, ang in ((v, w), (0.0, w)):
-            if (lin, ang) != (v, w) and ang == 0.0:
-                break
+        turn_only = [(0.0, w)] if v != 0.0 and w != 0.0 else []
+        for lin, ang in [(v, w)] + turn_only:
             if self._body_safe(ctx, pose, lin, ang):
                 if (lin, ang) != (v, w):
                     self._log_throttled(5.0, now, WARNING, "explorer: recovery twist (%.2f m/s, %.2f "

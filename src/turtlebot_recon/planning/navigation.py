@@ -101,7 +101,7 @@ class Navigation:
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
         self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
         self._cusp = False                            # path_xy ends where the plan reverses
-        self._backed_m = 0.0                          # backed so far in this manoeuvre
+        self._reversing = False                       # this manoeuvre has started backing
         self.map: Optional[MapView] = None
         self.status, self.reason = "idle", ""
         self.goal: Optional[tuple] = None            # (x, y, yaw or None)
@@ -392,7 +392,7 @@ class Navigation:
         # to half a cell off the lattice line; the next turn in place is planned at its end)
         want = math.atan2(y - by, x - bx) if to_go > 0.02 else byaw
         err = geometry.wrap_angle(want - yaw)
-        if abs(err) > BACK_ALIGN_RAD and self._backed_m == 0.0:
+        if abs(err) > BACK_ALIGN_RAD and not self._reversing:
             if not self.body.turn_clear(inp, pose, err):
                 self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): turning to back out "
                                        f"would hit an obstacle")
@@ -402,9 +402,9 @@ class Navigation:
             return 0.0, math.copysign(min(top, max(f.rotate_speed_min_radps, f.rotate_gain_per_s * abs(err))), err)
         to_go = -((bx - x) * math.cos(yaw) + (by - y) * math.sin(yaw))
         if to_go <= 0.01:
-            self.backing, self._need_plan, self._backed_m = None, True, 0.0
+            self.backing, self._need_plan, self._reversing = None, True, False
             return 0.0, 0.0
-        self._backed_m += min(self.lattice.reverse_speed_mps, to_go) / self.s.controller_rate_hz
+        self._reversing = True
         return self._straight(inp, pose, to_go, -1)
 
     def _straight(self, inp: ControlInput, pose: tuple, to_go: float, sign: int) -> tuple:
@@ -437,7 +437,7 @@ class Navigation:
     def _clear_path(self) -> None:
         self.backing = self.approach = None
         self._cusp = False
-        self._backed_m = 0.0
+        self._reversing = False
         self.path_xy = np.zeros((0, 2))
         self.path_poses = np.zeros((0, 3))
         self.plan = None
