@@ -165,6 +165,46 @@ class OpenList {
   size_t size_ = 0;                                      // entries, stale ones included
 };
 
+// A bucket queue for Dijkstra (Dial 1969) where every edge costs at least `width` (> 0):
+// a key goes to bucket floor(key / width) of a ring of them. Popping empties the lowest
+// bucket in any order, which is exact: a state in bucket b has g < (b + 1) width, so every
+// edge out of it, and out of any later state, ends in a later bucket; nothing popped later
+// can lower a key of bucket b. `span` bounds how far above the lowest key any key pushed
+// lies (the costliest edge, or the spread of the start keys), which sizes the ring. O(1) per
+// push and pop, where a heap pays a sift; used by cost_to_come, which has no heuristic.
+// Lazy deletion as OpenList: the caller skips the states it pops closed.
+class BucketQueue {
+ public:
+  BucketQueue(double width, double span)
+      : width_(width), ring_(static_cast<size_t>(std::ceil(span / width)) + 2) {}
+
+  bool empty() const { return size_ == 0; }
+
+  void push(double key, std::int32_t state) {
+    const auto bucket = static_cast<std::int64_t>(std::floor(key / width_));
+    if (size_ == 0 || bucket < current_) current_ = bucket;  // only before the first pop
+    if (bucket - current_ >= static_cast<std::int64_t>(ring_.size()))
+      throw std::logic_error("BucketQueue: a key beyond the ring's span");
+    ring_[static_cast<size_t>(bucket) % ring_.size()].push_back(state);
+    ++size_;
+  }
+
+  std::int32_t pop() {
+    std::vector<std::int32_t>* b = &ring_[static_cast<size_t>(current_) % ring_.size()];
+    while (b->empty()) b = &ring_[static_cast<size_t>(++current_) % ring_.size()];
+    const std::int32_t state = b->back();
+    b->pop_back();
+    --size_;
+    return state;
+  }
+
+ private:
+  double width_;
+  std::vector<std::vector<std::int32_t>> ring_;
+  std::int64_t current_ = 0;  // the lowest bucket that may hold a key
+  size_t size_ = 0;
+};
+
 struct GridPath {
   std::vector<Cell> cells;  // start ... goal; empty when the goal is unreachable
   double cost = std::numeric_limits<double>::infinity();

@@ -184,7 +184,21 @@ class LatticeSearch {
   // heading. Seeds off the grid or whose pose collides are skipped. Call once per object.
   void cost_to_come(const std::vector<LatticeSeed>& seeds, float* out) {
     std::fill_n(out, static_cast<size_t>(rows_) * cols_, std::numeric_limits<float>::infinity());
-    OpenList open([this](std::int32_t s) { return is_closed(s); });
+    // Dial's buckets: every move costs at least its length (one cell or more; backward ones
+    // reverse_cost_factor >= 1 times that), every turn turn_cost_m_per_rad x its angle.
+    double cheapest = std::numeric_limits<double>::infinity(), dearest = 0.0;
+    for (int k = 0; k < K_; ++k) {
+      const double drive = length_m_[k] * (1.0 + p_.cost_weight) * std::max(1.0, p_.reverse_cost_factor);
+      cheapest = std::min({cheapest, length_m_[k], p_.turn_cost_m_per_rad * std::min(turn_rad_[k][0], turn_rad_[k][1])});
+      dearest = std::max({dearest, drive, p_.turn_cost_m_per_rad * std::max(turn_rad_[k][0], turn_rad_[k][1])});
+    }
+    double lowest_seed = std::numeric_limits<double>::infinity(), highest_seed = 0.0;
+    for (const LatticeSeed& seed : seeds)
+      if (seed.cost_m >= 0) lowest_seed = std::min(lowest_seed, seed.cost_m), highest_seed = std::max(highest_seed, seed.cost_m);
+    // A turn that costs nothing (turn_cost_m_per_rad 0) gets buckets of a thousandth of a cell:
+    // costs may then exceed the least by that much.
+    const double width = std::max(cheapest * (1.0 - 1e-9), 1e-3 * p_.resolution_m);
+    BucketQueue open(width, std::max(dearest, seeds.empty() ? 0.0 : highest_seed - lowest_seed) + width);
     auto open_state = [&](int s, double g) {
       const int cell = s / K_, k = s % K_;
       if ((closed_[cell] >> k) & 1) return;

@@ -178,28 +178,40 @@ def test_a_result_for_a_replaced_goal_is_ignored():
     assert run.ex.book.failures(LEFT_GOAL) == 0 and not a.cycled
 
 
-def test_succeeded_marks_success_and_triggers_a_cycle_at_once():
+def test_an_arrival_sends_the_next_goal_at_once_and_the_cycle_follows():
     run = Run()
     goal = run.until_goal()
     a, _ = run.tick()
     assert not a.cycled                       # 0.1 s after a cycle: none due
     a, _ = run.tick(events=[NavEvent(goal.seq, "succeeded")])
-    assert a.cycled                           # the goal ended: a cycle right away
     assert run.ex.book.successes(LEFT_GOAL) == 1
     assert run.lines("explorer: goal (1.03, 1.03) reached")
-    # this cycle runs on the map from before the arrival, which cannot show what the robot
-    # sees there yet: the arrival does not count, and the goal is sent again (the robot
-    # stays and looks)
-    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    assert again.xy == approx_xy(LEFT_GOAL) and again.seq == goal.seq + 1 and again.retries == 0
-    # reached again, and the map still did not change: (20, 20) sees every cell of the left
-    # frontier (column 19, at most 20 cells away) and did not reveal them; with none left
-    # for another viewpoint to see, it is given up and the right frontier's goal goes out
-    a, _ = run.tick(events=[NavEvent(again.seq, "succeeded")])
+    # the arrival: the strategy's choice among the last cycle's other frontiers goes out in
+    # the same tick, before any cycle (which takes wall time the robot would stand through)
+    assert not a.cycled
     (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == again.seq + 1
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == goal.seq + 1 and nxt.retries == 0
+    # the cycle runs at the next tick. The map did not change: (20, 20), reached, sees every
+    # cell of the left frontier (column 19, at most 20 cells away) and did not reveal them;
+    # with none left for another viewpoint to see, it is given up. The right goal stands:
+    # nothing is sent again
+    a, _ = run.tick()
+    assert a.cycled and not [x for x in a.actions if isinstance(x, SendGoal)]
     left, right = run.ex.frontiers
     assert not left.reachable and right.reachable
+    assert run.ex.book.active.goal == approx_xy(RIGHT_GOAL)
+
+
+def test_an_arrival_with_no_other_frontier_waits_for_the_cycle():
+    # Only the left frontier: nothing else to send, so the arrival's cycle runs at once, on
+    # the map from before the arrival, which does not show yet what the robot sees there
+    # (the arrival does not count): the goal is sent again, and the robot stays and looks
+    run = Run(grid=strip(right_unknown=False))
+    goal = run.until_goal()
+    a, _ = run.tick(events=[NavEvent(goal.seq, "succeeded")])
+    assert a.cycled
+    (again,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert again.xy == approx_xy(LEFT_GOAL) and again.seq == goal.seq + 1
 
 
 def test_goal_whose_frontier_disappears_is_dropped_for_the_next():

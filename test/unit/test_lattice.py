@@ -519,6 +519,31 @@ def test_cost_to_come_is_finite_exactly_where_plan_lattice_finds_a_path(robot):
     assert checked == 72 and unreachable >= 3
 
 
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_cost_to_come_is_the_least_plan_cost_from_a_lattice_heading(robot):
+    # Started at a lattice heading (yaw 0) where the robot turns, the field's seeds cost
+    # exactly the turns plan_lattice charges: the two agree to float32's precision (the
+    # field's bucket queue settles every state at its least cost, in any order within a
+    # bucket: a bucket narrower than the cheapest move or turn could not hold both ends).
+    rng = np.random.default_rng(5)
+    settings = LatticeSettings.for_robot(robot)
+    compared = 0
+    for trial in range(4):
+        occ = random_blocks(rng, 10)
+        free = roomy_cells(occ)
+        start = centre(*free[rng.integers(len(free))], yaw=0.0)
+        field = reach(occ, robot, start)
+        for cell in free[rng.choice(len(free), 10, replace=False)]:
+            try:
+                cost = plan_lattice(occ, RES, ORIGIN, robot, start, centre(*cell)[:2], settings).cost
+            except PlanningError:
+                assert not np.isfinite(field[tuple(cell)])
+                continue
+            assert field[tuple(cell)] == pytest.approx(cost, rel=1e-6, abs=1e-5), (trial, cell)
+            compared += 1
+    assert compared >= 30
+
+
 def test_cost_to_come_starts_as_the_navigator_does():
     # Facing away from a wall with the rear within margin_m of it (row 4): the box fits there
     # only across the wall or facing it, going nowhere; the first cell straight ahead where it

@@ -20,6 +20,12 @@ the end) for the node to carry out in order:
   for one tick even when the cycle sent the next one (the stuck watchdog's window then starts
   with the new goal, not at the robot's last progress on the old one).
 
+An arrival at a frontier goal does not wait for that cycle: the strategy chooses again at
+once among the last cycle's frontiers, less those whose goal is where the robot stands, and
+that goal goes out in the same tick; the cycle runs at the next tick and may replace it
+(``_carry_on``). A cycle takes wall time, seconds of sim time at the benchmark's rtf of ~10,
+which the robot stood through at every arrival (160 s of the depot's 880 s to 99 %).
+
 ``start`` builds the supervisor (SPIN, then EXPLORE) once the node has the first map, the
 pose and the navigator.
 
@@ -223,6 +229,7 @@ class Explorer:
         self.state: Optional[str] = None
         self.done = False
         self._nav_before_cycle = "idle"
+        self._arrived: Optional[Tuple[float, float]] = None  # a frontier goal reached this tick
         self._out = Outputs()
         self._log = log or logging.getLogger(__name__).log
         self._throttled: Dict[str, float] = {}
@@ -247,6 +254,9 @@ class Explorer:
             return out                                    # DONE is final: nothing left to do
         self._nav_results(inp.now_s, inp.pose, inp.nav_events)
         self._nav_before_cycle = self.nav
+        arrived, self._arrived = self._arrived, None
+        if arrived is not None and self._carry_on(arrived, inp.pose):
+            return out                                    # the cycle follows at the next tick
         if self.cycle_now or inp.now_s >= self.next_cycle_s:
             self.cycle_now, self.next_cycle_s = False, inp.now_s + self.s.cycle_period_s
             out.cycled = True
@@ -298,6 +308,7 @@ class Explorer:
                 continue
             if event.status == "succeeded":
                 expired = self.book.succeeded(sent.xy, now)
+                self._arrived = sent.xy
                 self._log(INFO, "explorer: goal (%.2f, %.2f) reached%s", *sent.xy,
                           f"; {expired} blacklist entries nearby expired" if expired else "")
                 self.cycle_now = True
@@ -324,6 +335,24 @@ class Explorer:
                             "which is still reachable: sent again (%d in a row)", *sent.xy, text,
                             sent.retries + 1)
         self._send(sent.kind, sent.xy, sent.yaw, pose, retries=sent.retries + 1)
+        return True
+
+    def _carry_on(self, arrived: tuple, pose: tuple) -> bool:
+        """Right after an arrival at ``arrived``, the strategy's choice among the last cycle's
+        frontiers less those whose goal is there, sent at once; True if one was. The cycle
+        follows at the next tick and may replace it: it takes wall time, i.e. seconds of sim
+        time at rtf > 1, which the robot would otherwise stand through (and its map does not
+        yet show what the robot sees from the goal: that arrival counts from the cycles after
+        it, ``GoalBook.tried``)."""
+        ctx = self.ctx
+        if ctx is None or self.mode != "explore":
+            return False
+        rest = [f for f in self.frontiers if math.dist(f.goal, arrived) > self.s.same_goal_m]
+        choice = self.strategy.choose(rest, ctx, self.book)
+        if choice is None or math.dist(choice.goal, arrived) <= self.s.same_goal_m:
+            return False                                  # (a strategy may place its own goals)
+        self.choice = choice
+        self._pursue(ctx, pose)
         return True
 
     # ------------------------------------------------------------------ explorer cycle
