@@ -236,9 +236,10 @@ class LatticeSearch {
   // and its opposite (the robot backs out along its line); failing a forward one, at the first
   // cell straight ahead within snap_cells where one of those two headings fits (costing the
   // distance). When none of those fits (the robot brushes an obstacle), the nearest cells
-  // within snap_cells where some heading fits, at each heading that does. Returns false (all
-  // +inf) when there is none.
-  bool reach_from(Cell start, double yaw, int snap_cells, float* out) {
+  // within snap_cells where some heading fits, at each heading that does. `extra` seeds join
+  // them (the escape arcs of planning/lattice.py). Returns false (all +inf) when there is none.
+  bool reach_from(Cell start, double yaw, int snap_cells, const std::vector<LatticeSeed>& extra,
+                  float* out) {
     std::vector<LatticeSeed> seeds;
     yaw = std::remainder(yaw, 2 * kPi);
     std::vector<int> order(K_);  // headings by angle to yaw
@@ -281,6 +282,7 @@ class LatticeSearch {
             if (fits(c, k)) seeds.push_back({c, k, std::sqrt(d2) * p_.resolution_m});
         }
     }
+    seeds.insert(seeds.end(), extra.begin(), extra.end());
     cost_to_come(seeds, out);
     return !seeds.empty();
   }

@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <tuple>
 #include <utility>
+#include <vector>
 
 #include "numpy_args.hpp"
 #include "turtlebot_recon/footprint.hpp"
@@ -112,7 +114,8 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
                                             double turn_margin_m, double cost_weight,
                                             double inflation_m, double cost_scaling_factor,
                                             double turn_cost_m_per_rad, int occupied_threshold,
-                                            bool unknown_is_obstacle, double reverse_cost_factor) {
+                                            bool unknown_is_obstacle, double reverse_cost_factor,
+                                            const std::vector<std::tuple<int, int, int, double>>& extra_seeds) {
   const Shape s = grid_shape(occupancy, "lattice_cost_to_come", "occupancy");
   if (!std::isfinite(start_yaw)) fail("lattice_cost_to_come", "start_yaw must be finite");
   if (!(std::isfinite(snap_radius_m) && snap_radius_m >= 0))
@@ -122,13 +125,15 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
                                  turn_margin_m, cost_weight,      inflation_m,
                                  cost_scaling_factor, turn_cost_m_per_rad, occupied_threshold,
                                  unknown_is_obstacle, reverse_cost_factor};
+  std::vector<tp::LatticeSeed> extra;
+  for (const auto& [row, col, heading, cost] : extra_seeds) extra.push_back({{row, col}, heading, cost});
   py::array_t<float> out({s.rows, s.cols});
   float* dst = out.mutable_data();
   {
     py::gil_scoped_release release;
     tp::LatticeSearch search(occupancy.data(), s.rows, s.cols, footprint, params);
     search.reach_from({start.first, start.second}, start_yaw,
-                      static_cast<int>(snap_radius_m / resolution), dst);
+                      static_cast<int>(snap_radius_m / resolution), extra, dst);
   }
   return out;
 }
@@ -245,11 +250,13 @@ void register_lattice(py::module_& m) {
         py::arg("inflation_m") = 0.35, py::arg("cost_scaling_factor") = 5.0,
         py::arg("turn_cost_m_per_rad") = 0.325, py::arg("occupied_threshold") = 65,
         py::arg("unknown_is_obstacle") = false, py::arg("reverse_cost_factor") = 0.0,
+        py::arg("extra_seeds") = std::vector<std::tuple<int, int, int, double>>{},
         "float32 (rows, cols): the cheapest plan_lattice cost (m) from the robot at cell `start`\n"
         "with yaw start_yaw to each cell at its cheapest heading; inf where plan_lattice finds no\n"
         "path. Start states: every heading that fits where the turning disc does (each costing\n"
         "the turn), else the headings along the robot's line either way; when none fits, the\n"
-        "nearest cell within snap_radius_m where one does. All inf when there is none.");
+        "nearest cell within snap_radius_m where one does; and extra_seeds, (row, col, heading,\n"
+        "cost_m) states (escape arcs), at their cost. All inf when there is none.");
   m.def("footprint_costmap", &py_footprint_costmap, py::arg("occupancy"), py::arg("resolution"),
         py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
         py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,

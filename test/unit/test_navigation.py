@@ -6,8 +6,8 @@ import pytest
 
 from turtlebot_recon import _native
 from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
-                                      PlanningError, footprint_clear, make_costmap, plan,
-                                      plan_lattice)
+                                      PlanningError, escape_arcs, footprint_clear,
+                                      lattice_cost_to_come, make_costmap, plan, plan_lattice)
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
@@ -234,26 +234,39 @@ def test_a_goal_whose_turnable_cell_lies_beyond_a_thin_wall_is_reached_on_its_ow
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
 
 
-def test_squares_up_off_a_wall_it_cannot_turn_beside():
-    # The waffle_pi facing north with its side 0.072 m off a long wall (centre 0.225 m from
-    # it), open floor to the west: turning left would swing its rear (0.2 m behind the wheels)
-    # into the wall, the disc fits nowhere near, and driving on keeps it beside the wall. The
-    # forward-only lattice has no way west; with backward moves the navigator turns partway
-    # right, backs off south-west, and drives to the goal; the body never comes within 5 mm.
+def beside_east_wall(centre_m):
+    """A 1.95 x 2.9 m room whose east wall starts at x = 2.0, and the waffle_pi facing north
+    with its centre ``centre_m`` from that wall, open floor to the west."""
     occ = np.full((60, 60), 100, np.int8)
-    occ[1:59, 1:40] = 0                        # the room; its east wall starts at x = 2.0
-    start = (2.0 - 0.225, 1.0, math.pi / 2)
-    forward_only = LatticeSettings.for_robot(WAFFLE, reverse_speed_mps=0.0)
-    with pytest.raises(PlanningError, match="unreachable"):
-        plan_lattice(occ, RES, (0.0, 0.0), WAFFLE, start, (0.5, 1.5), forward_only)
+    occ[1:59, 1:40] = 0
+    return occ, (2.0 - centre_m, 1.0, math.pi / 2)
+
+
+def drive_west(occ, start):
+    """Navigate the waffle_pi from ``start`` to (0.5, 1.5): it arrives, and its body never comes
+    within 5 mm of a wall. (poses, commands) as drive_robot."""
     nav = Navigation(NavigationSettings(), WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(0.5, 1.5)
     poses, commands = drive_robot(nav, WAFFLE, occ, start, 90.0)
     assert nav.status == "succeeded", nav.reason
     assert math.dist(poses[-1][:2], (0.5, 1.5)) < 0.15
-    assert any(v < 0 for _, (v, w) in commands)
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+    return poses, commands
+
+
+def test_squares_up_off_a_wall_it_cannot_turn_beside():
+    # The waffle_pi facing north with its side 0.072 m off a long wall (centre 0.225 m from
+    # it), open floor to the west: turning left would swing its rear (0.2 m behind the wheels)
+    # into the wall, the disc fits nowhere near, and driving on keeps it beside the wall. The
+    # forward-only lattice has no way west; with backward moves the navigator turns partway
+    # right, backs off south-west, and drives to the goal; the body never comes within 5 mm.
+    occ, start = beside_east_wall(0.225)
+    forward_only = LatticeSettings.for_robot(WAFFLE, reverse_speed_mps=0.0)
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan_lattice(occ, RES, (0.0, 0.0), WAFFLE, start, (0.5, 1.5), forward_only)
+    _, commands = drive_west(occ, start)
+    assert any(v < 0 for _, (v, w) in commands)
 
 
 def test_a_plan_that_backs_into_place_is_followed_to_its_cusp_then_backed():
@@ -291,3 +304,37 @@ def test_backs_out_of_a_dead_end_it_cannot_turn_in():
     assert any(v < 0.0 for _, (v, _) in commands)                    # it backed out
     assert all(v >= -0.1 - 1e-9 for _, (v, _) in commands)
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+
+
+def test_escape_arcs_get_a_box_off_a_wall_the_lattice_cannot_leave():
+    # 0.19 m from the wall (its side 0.037 m off it): too near for the partial turns that
+    # square it up at 0.225 m, and the wall runs the room's length.
+    occ, start = beside_east_wall(0.19)
+    settings = LatticeSettings.for_robot(WAFFLE)
+    # The lattice has no way off the robot's line (driving along the wall, either way): no plan
+    # to the open floor, and its field from the robot reaches that line's cells only.
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan_lattice(occ, RES, (0.0, 0.0), WAFFLE, start, (0.5, 1.5), settings)
+    alone = lattice_cost_to_come(occ, RES, (0.0, 0.0), WAFFLE, start, settings)
+    assert np.isfinite(alone).sum() < 60 and (np.argwhere(np.isfinite(alone))[:, 1] == 36).all()
+    # An arc of 1 m radius turning 26.6 degrees off the wall, forward (its rear swings 2 cm
+    # toward the wall, within the 3.7 cm) or backward, ends at a lattice pose the lattice goes
+    # on from; the body along each keeps the follower's 5 mm.
+    arcs = escape_arcs(occ, RES, (0.0, 0.0), WAFFLE, start, settings, 0.005)
+    assert [(a.direction, round(math.degrees(a.turn_rad), 1)) for a in arcs] == [(1, 26.6), (-1, -26.6)]
+    for a in arcs:
+        assert body_clearance(WAFFLE, occ, a.poses(start, 0.01)).min() >= 0.005
+        assert a.poses(start, 0.01)[-1, 2] == pytest.approx(a.end[2])
+        assert footprint_clear(occ, RES, (0.0, 0.0), WAFFLE, np.array([a.end]), settings)[0]
+    assert arcs[0].cost_m == pytest.approx(math.radians(26.565), abs=1e-3)  # 1 m x the turn
+    assert arcs[1].cost_m == pytest.approx(2.6 * arcs[0].cost_m, abs=1e-3)  # backward: 0.26 / 0.1
+    field = lattice_cost_to_come(occ, RES, (0.0, 0.0), WAFFLE, start, settings, escapes=arcs)
+    assert np.isfinite(field).sum() > 1500 and np.isfinite(field[30, 10])
+    # A round robot turns wherever it stands: no arcs.
+    assert escape_arcs(occ, RES, (0.0, 0.0), load_robot("turtlebot3_burger"), start, settings, 0.005) == []
+
+
+def test_a_wedged_robot_drives_an_escape_arc_then_to_the_goal():
+    _, commands = drive_west(*beside_east_wall(0.19))
+    # it starts on the forward arc: 0.1 m/s, turning left at 0.1 rad/s (1 m radius)
+    assert commands[0][1] == pytest.approx((0.1, 0.1))

@@ -58,7 +58,8 @@ from ..behavior.supervisor import NAV_STATUSES
 from ..config import positive, require
 from ..control.footprint import BodyCheck
 from ..geometry import inside, xy_to_cell
-from ..planning import INSCRIBED, LatticeSettings, footprint_costmap, lattice_cost_to_come
+from ..planning import (INSCRIBED, LatticeSettings, escape_arcs, footprint_costmap,
+                        lattice_cost_to_come)
 from ..robot import RobotSpec
 from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
@@ -362,8 +363,9 @@ class Explorer:
         # where some heading fits may still be out of reach: a slot the box cannot turn into)
         costmap = footprint_costmap(occ, res, self.robot, self.lattice)
         cell = xy_to_cell(pose[:2], res, origin)
+        escapes = escape_arcs(occ, res, origin, self.robot, pose, self.lattice, self.body.margin_m)
         field = lattice_cost_to_come(occ, res, origin, self.robot, pose, self.lattice,
-                                     self.fs.snap_radius_m)
+                                     self.fs.snap_radius_m, escapes)
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,

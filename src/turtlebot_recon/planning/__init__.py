@@ -7,12 +7,12 @@ Dijkstra cost-to-come field or the nearest accessible cell (e.g. frontier goals)
 from .._native import astar, dijkstra, distance_transform, inflate, nearest_accessible, shortcut
 from .costmap import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, CostmapSettings,
                       PlannerSettings, PlanningError, make_costmap, plan)
-from .lattice import (LatticePath, LatticeSettings, footprint_clear, footprint_costmap,
-                      lattice_cost_to_come, plan_lattice)
+from .lattice import (EscapeArc, LatticePath, LatticeSettings, escape_arcs, footprint_clear,
+                      footprint_costmap, lattice_cost_to_come, plan_lattice)
 
 __all__ = [
     "FREE_SPACE", "INSCRIBED", "LETHAL", "NO_INFORMATION", "CostmapSettings", "PlannerSettings",
     "PlanningError", "make_costmap", "plan", "astar", "dijkstra", "distance_transform", "inflate",
     "nearest_accessible", "shortcut", "LatticePath", "LatticeSettings", "plan_lattice",
-    "footprint_clear", "footprint_costmap", "lattice_cost_to_come",
+    "EscapeArc", "escape_arcs", "footprint_clear", "footprint_costmap", "lattice_cost_to_come",
 ]

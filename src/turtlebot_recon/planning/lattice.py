@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -121,6 +121,82 @@ def search_args(robot: RobotSpec, settings: LatticeSettings) -> dict:
                 reverse_cost_factor=settings.reverse_cost_factor)
 
 
+ESCAPE_RADIUS_M = 1.0   # escape arcs' radius: the end of a box 0.2 m from its wheels swings
+                        # 0.2^2 / (2 x 1 m) = 2 cm outward on one (within margin_m)
+
+
+@dataclass(frozen=True)
+class EscapeArc:
+    """An arc of ``ESCAPE_RADIUS_M`` from the robot's pose to a lattice pose (``escape_arcs``)."""
+    direction: int           # +1 forward, -1 backward
+    turn_rad: float          # heading change, + counter-clockwise
+    length_m: float          # driven
+    cell: Tuple[int, int]    # (row, col) it ends in
+    heading: int             # lattice heading index it ends at
+    end: Tuple[float, float, float]  # that lattice pose: the cell's centre at the heading (m, rad)
+    cost_m: float            # as the lattice counts it: length_m, backward x reverse_cost_factor
+
+    def poses(self, pose: Sequence[float], step_m: float) -> np.ndarray:
+        """(n, 3) poses along the arc from ``pose`` (x, y, yaw), every ``step_m`` or less."""
+        return _arc(pose, self.turn_rad, self.direction, self.length_m, step_m)
+
+
+def escape_arcs(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+                robot: RobotSpec, pose: Sequence[float], settings: LatticeSettings,
+                sweep_margin_m: float) -> List[EscapeArc]:
+    """How a robot that cannot turn where it stands leaves the line it is on: the lattice moves
+    straight along headings and turns in place, so a box parallel to a wall and a few
+    centimetres beyond margin_m, with no room to turn anywhere along that wall, has no lattice
+    way off it; an arc has. Arcs of ``ESCAPE_RADIUS_M`` forward, and backward where the lattice
+    drives backward, each turning from the robot's yaw to the lattice heading next to the
+    nearest one on either side; kept where the body along them keeps ``sweep_margin_m`` off
+    every obstacle (or gets no nearer, when it starts nearer) and the footprint fits at the
+    end cell's centre at that heading (margin_m). Cheapest first. For a round robot, none (it
+    turns wherever it stands)."""
+    if robot.is_round:
+        return []
+    settings = settings.with_robot(robot)
+    yaws = np.array([h[2] for h in _native.lattice_headings(settings.headings)])
+    yaw = float(pose[2])
+    nearest = int(np.argmin(np.abs(np.remainder(yaws - yaw + math.pi, 2 * math.pi) - math.pi)))
+    directions = (1, -1) if settings.reverse_cost_factor > 0 else (1,)
+    occupancy = np.ascontiguousarray(occupancy, dtype=np.int8)
+    arcs = []
+    for heading in ((nearest + 1) % len(yaws), (nearest - 1) % len(yaws)):
+        turn = float(np.remainder(yaws[heading] - yaw + math.pi, 2 * math.pi) - math.pi)
+        for direction in directions:
+            length = ESCAPE_RADIUS_M * abs(turn)
+            sweep = _arc(pose, turn, direction, length, 0.5 * resolution)
+            cell = geometry.xy_to_cell(sweep[-1, :2], resolution, origin)
+            centre = geometry.cell_to_xy(cell, resolution, origin)
+            factor = 1.0 if direction > 0 else settings.reverse_cost_factor
+            arc = EscapeArc(direction, turn, length, cell, heading,
+                            (centre[0], centre[1], float(yaws[heading])), length * factor)
+            clearance = _native.footprint_clearance(
+                occupancy, resolution, (float(origin[0]), float(origin[1])), sweep,
+                **footprint_args(robot), max_m=sweep_margin_m,
+                occupied_threshold=settings.occupied_threshold,
+                unknown_is_obstacle=settings.unknown_is_obstacle)
+            if not (clearance >= min(sweep_margin_m, clearance[0]) - 1e-9).all():
+                continue
+            r, c = cell
+            if not (geometry.inside(r, c, occupancy.shape) and 0 <= occupancy[r, c] < settings.occupied_threshold):
+                continue
+            if footprint_clear(occupancy, resolution, origin, robot, np.array([arc.end]), settings)[0]:
+                arcs.append(arc)
+    return sorted(arcs, key=lambda a: a.cost_m)
+
+
+def _arc(pose: Sequence[float], turn: float, direction: int, length: float, step_m: float) -> np.ndarray:
+    """(n, 3) poses, ``pose`` first, along the arc turning by ``turn`` over ``length`` m driven
+    forward (direction +1) or backward (-1), every ``step_m`` or less."""
+    x, y, yaw = (float(v) for v in pose[:3])
+    theta = yaw + np.linspace(0.0, turn, max(2, int(math.ceil(length / step_m)) + 1))
+    k = turn / (direction * length)                 # curvature per metre of signed distance
+    return np.column_stack([x + (np.sin(theta) - math.sin(yaw)) / k,
+                            y - (np.cos(theta) - math.cos(yaw)) / k, theta])
+
+
 def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                  robot: RobotSpec, start_pose: Sequence[float], goal_xy: Sequence[float],
                  settings: LatticeSettings, goal_yaw: Optional[float] = None) -> LatticePath:
@@ -153,20 +229,23 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
 
 def lattice_cost_to_come(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                          robot: RobotSpec, pose: Sequence[float], settings: LatticeSettings,
-                         snap_radius_m: float = 0.5) -> np.ndarray:
+                         snap_radius_m: float = 0.5,
+                         escapes: Sequence[EscapeArc] = ()) -> np.ndarray:
     """float32 (rows, cols): the cheapest ``plan_lattice`` cost (m) from the robot at ``pose``
     (x, y, yaw) to each cell, at whichever heading is cheapest; +inf where the lattice finds no
     path, so a cell is finite exactly when ``plan_lattice`` reaches it. This is where the robot
     can go: a cell where some heading fits (``footprint_costmap`` < 253) may still be out of
     reach (a slot it cannot turn into). The robot starts as the navigator does: at every
     heading that fits where it can turn, else along the line it is on (either way: it backs
-    out), else from the nearest cell within ``snap_radius_m`` where it fits."""
+    out), else from the nearest cell within ``snap_radius_m`` where it fits; and from the ends of
+    ``escapes`` (``escape_arcs``), at their cost."""
     settings = settings.with_robot(robot)
     settings.validate("LatticeSettings")
     start = geometry.xy_to_cell(pose[:2], resolution, origin)
     return _native.lattice_cost_to_come(
         occupancy, resolution, start, float(pose[2]), float(snap_radius_m),
-        **search_args(robot, settings))
+        **search_args(robot, settings),
+        extra_seeds=[(a.cell[0], a.cell[1], a.heading, a.cost_m) for a in escapes])
 
 
 def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec,

@@ -10,7 +10,9 @@ exploring), and hands the path to a controller with the ``control.Controller`` c
 robot's position, then the end of every straight run of the lattice path (the corners where it
 turns in place), the goal last. A plan that drives backward somewhere is followed forward to
 that cusp; one that starts backward is a manoeuvre the navigator drives itself (turn in place
-to the run's heading, back straight along it), then it plans again. Nothing here blocks.
+to the run's heading, back straight along it), then it plans again. A robot the lattice finds
+no way on from (parallel to a wall, no room to turn anywhere along it) drives an escape arc
+(``lattice.escape_arcs``) to a lattice pose the plan goes on from. Nothing here blocks.
 """
 from __future__ import annotations
 
@@ -25,8 +27,8 @@ from ..config import positive, require
 from ..control import BodyCheck, ControlInput, FollowerSettings, PurePursuit
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
-from .lattice import (LatticePath, LatticeSettings, footprint_clear, footprint_costmap,
-                      plan_lattice)
+from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
+                      footprint_clear, footprint_costmap, plan_lattice)
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,7 @@ class Navigation:
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
         self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
+        self.arc: Optional[EscapeArc] = None          # an escape arc being driven
         self._cusp = False                            # path_xy ends where the plan reverses
         self._reversing = False                       # this manoeuvre has started backing
         self.map: Optional[MapView] = None
@@ -149,11 +152,15 @@ class Navigation:
             return 0.0, 0.0
         if self.backing is not None:
             return self._back(pose)
+        if self.arc is not None:
+            return self._escape(pose)
         if self._need_plan or now_s - self._planned_at >= self.s.replan_period_s:
             if not self._plan(pose, now_s):
                 return 0.0, 0.0
             if self.backing is not None:
                 return self._back(pose)
+            if self.arc is not None:
+                return self._escape(pose)
         m = self.map
         out = self.controller.compute(ControlInput(
             now_s=now_s, pose=pose, velocity=velocity, path=self.path_xy, goal_yaw=self.goal_yaw,
@@ -333,6 +340,15 @@ class Navigation:
             # starts from a lattice pose of it again.
             if len(self.path_poses) and self._poses_clear(self.path_poses).all():
                 return True
+            # Parallel to a wall with no room to turn anywhere along it, the lattice has no
+            # way off the robot's line: an escape arc may have (planning.lattice.escape_arcs).
+            for arc in escape_arcs(m.occupancy, m.resolution, m.origin, self.robot, pose,
+                                   self.lattice, self.s.follower.collision_margin_m):
+                if not any(self._reaches(arc.end, goal) for goal in dict.fromkeys(goals)):
+                    continue
+                self._clear_path()
+                self.arc = arc
+                return True
             return self._finish("failed", str(exc))
         moving = np.flatnonzero(~path.turned[1:]) + 1           # poses reached by driving
         backward = np.flatnonzero(path.reversed)
@@ -407,6 +423,29 @@ class Navigation:
         self._reversing = True
         return self._straight(inp, pose, to_go, -1)
 
+    def _escape(self, pose: tuple) -> tuple:
+        """One period of an escape arc: (v, w) along it at reverse_speed_mps while the body keeps
+        the follower's margin (or gets no nearer) over the next 0.1 m of it, until the robot
+        faces the arc's end heading; then plan again. Else the goal fails: trapped."""
+        arc, m = self.arc, self.map
+        left = geometry.wrap_angle(arc.end[2] - float(pose[2]))
+        if abs(left) <= BACK_ALIGN_RAD or left * arc.turn_rad < 0:
+            self.arc, self._need_plan = None, True
+            return 0.0, 0.0
+        turn = math.copysign(min(abs(left), 0.1 / ESCAPE_RADIUS_M), left)
+        ahead = replace(arc, turn_rad=turn, length_m=ESCAPE_RADIUS_M * abs(turn))
+        inp = ControlInput(now_s=0.0, pose=pose, velocity=(0.0, 0.0), path=np.zeros((0, 2)),
+                           goal_yaw=None, occupancy=m.occupancy, costmap=m.costmap,
+                           resolution=m.resolution, origin=m.origin)
+        margin = self.s.follower.collision_margin_m
+        clearance = self.body.clearance(inp, ahead.poses(pose, 0.5 * margin), margin)
+        if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
+            self._finish("failed", f"trapped at ({pose[0]:.2f}, {pose[1]:.2f}): the escape arc "
+                                   f"would hit an obstacle")
+            return 0.0, 0.0
+        v = arc.direction * self.lattice.reverse_speed_mps
+        return v, abs(v) * arc.turn_rad / arc.length_m
+
     def _straight(self, inp: ControlInput, pose: tuple, to_go: float, sign: int) -> tuple:
         """(v, 0) driving straight forward (sign +1) or back (-1) at reverse_speed_mps, at most
         ``to_go`` m, while the body keeps the follower's margin (or gets no nearer) over the
@@ -434,8 +473,15 @@ class Navigation:
                 self.goal_yaw = None       # not at that heading: at any
         return plan_lattice(*args)
 
+    def _reaches(self, start: tuple, goal: tuple) -> bool:
+        try:
+            self._lattice(start, goal)
+        except PlanningError:
+            return False
+        return True
+
     def _clear_path(self) -> None:
-        self.backing = self.approach = None
+        self.backing = self.approach = self.arc = None
         self._cusp = False
         self._reversing = False
         self.path_xy = np.zeros((0, 2))
