@@ -189,12 +189,17 @@ class LatticeSearch {
     double cheapest = std::numeric_limits<double>::infinity(), dearest = 0.0;
     for (int k = 0; k < K_; ++k) {
       const double drive = length_m_[k] * (1.0 + p_.cost_weight) * std::max(1.0, p_.reverse_cost_factor);
-      cheapest = std::min({cheapest, length_m_[k], p_.turn_cost_m_per_rad * std::min(turn_rad_[k][0], turn_rad_[k][1])});
-      dearest = std::max({dearest, drive, p_.turn_cost_m_per_rad * std::max(turn_rad_[k][0], turn_rad_[k][1])});
+      const double turn_lo = p_.turn_cost_m_per_rad * std::min(turn_rad_[k][0], turn_rad_[k][1]);
+      const double turn_hi = p_.turn_cost_m_per_rad * std::max(turn_rad_[k][0], turn_rad_[k][1]);
+      cheapest = std::min({cheapest, length_m_[k], turn_lo});
+      dearest = std::max({dearest, drive, turn_hi});
     }
     double lowest_seed = std::numeric_limits<double>::infinity(), highest_seed = 0.0;
-    for (const LatticeSeed& seed : seeds)
-      if (seed.cost_m >= 0) lowest_seed = std::min(lowest_seed, seed.cost_m), highest_seed = std::max(highest_seed, seed.cost_m);
+    for (const LatticeSeed& seed : seeds) {
+      if (!(seed.cost_m >= 0)) continue;
+      lowest_seed = std::min(lowest_seed, seed.cost_m);
+      highest_seed = std::max(highest_seed, seed.cost_m);
+    }
     // A turn that costs nothing (turn_cost_m_per_rad 0) gets buckets of a thousandth of a cell:
     // costs may then exceed the least by that much.
     const double width = std::max(cheapest * (1.0 - 1e-9), 1e-3 * p_.resolution_m);

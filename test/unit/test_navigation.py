@@ -8,6 +8,7 @@ from turtlebot_recon import _native
 from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
                                       PlanningError, escape_arcs, footprint_clear,
                                       lattice_cost_to_come, make_costmap, plan, plan_lattice)
+from turtlebot_recon.control import BodyCheck
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
@@ -320,7 +321,7 @@ def test_escape_arcs_get_a_box_off_a_wall_the_lattice_cannot_leave():
     # An arc of 1 m radius turning 26.6 degrees off the wall, forward (its rear swings 2 cm
     # toward the wall, within the 3.7 cm) or backward, ends at a lattice pose the lattice goes
     # on from; the body along each keeps the follower's 5 mm.
-    arcs = escape_arcs(occ, RES, (0.0, 0.0), WAFFLE, start, settings, 0.005)
+    arcs = escape_arcs(occ, RES, (0.0, 0.0), WAFFLE, start, settings, BodyCheck(WAFFLE, 0.005))
     assert [(a.direction, round(math.degrees(a.turn_rad), 1)) for a in arcs] == [(1, 26.6), (-1, -26.6)]
     for a in arcs:
         assert body_clearance(WAFFLE, occ, a.poses(start, 0.01)).min() >= 0.005
@@ -331,7 +332,8 @@ def test_escape_arcs_get_a_box_off_a_wall_the_lattice_cannot_leave():
     field = lattice_cost_to_come(occ, RES, (0.0, 0.0), WAFFLE, start, settings, escapes=arcs)
     assert np.isfinite(field).sum() > 1500 and np.isfinite(field[30, 10])
     # A round robot turns wherever it stands: no arcs.
-    assert escape_arcs(occ, RES, (0.0, 0.0), load_robot("turtlebot3_burger"), start, settings, 0.005) == []
+    burger = load_robot("turtlebot3_burger")
+    assert escape_arcs(occ, RES, (0.0, 0.0), burger, start, settings, BodyCheck(burger, 0.005)) == []
 
 
 def test_a_wedged_robot_drives_an_escape_arc_then_to_the_goal():

@@ -60,6 +60,13 @@ class BodyCheck:
         """bool (n,): the body keeps ``margin_m`` off every obstacle at each pose."""
         return self.clearance(inp, poses, self.margin_m) >= self.margin_m
 
+    def stays_clear(self, inp, poses) -> bool:
+        """Whether a motion through ``poses`` (the first where the robot is) keeps ``margin_m``
+        off every obstacle, or at least gets no nearer to them than it starts (a robot already
+        brushing a wall may move away from it)."""
+        clearance = self.clearance(inp, poses, self.margin_m)
+        return bool((clearance >= np.minimum(self.margin_m, clearance[0]) - 1e-9).all())
+
     def disc_clear(self, inp, xy, extra_m: float = 0.0) -> np.ndarray:
         """bool (n,): the turning disc keeps ``margin_m + extra_m`` off every obstacle at each
         (x, y) of ``xy``."""

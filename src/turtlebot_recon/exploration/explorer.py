@@ -363,7 +363,7 @@ class Explorer:
         # where some heading fits may still be out of reach: a slot the box cannot turn into)
         costmap = footprint_costmap(occ, res, self.robot, self.lattice)
         cell = xy_to_cell(pose[:2], res, origin)
-        escapes = escape_arcs(occ, res, origin, self.robot, pose, self.lattice, self.body.margin_m)
+        escapes = escape_arcs(occ, res, origin, self.robot, pose, self.lattice, self.body)
         field = lattice_cost_to_come(occ, res, origin, self.robot, pose, self.lattice,
                                      self.fs.snap_radius_m, escapes)
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
@@ -516,9 +516,7 @@ class Explorer:
             y = pose[1] - v / w * (np.cos(yaw) - math.cos(pose[2]))
         else:
             x, y = pose[0] + v * steps * math.cos(pose[2]), pose[1] + v * steps * math.sin(pose[2])
-        margin = self.body.margin_m
-        clearance = self.body.clearance(ctx, np.column_stack([x, y, yaw]), margin)
-        return bool((clearance >= np.minimum(margin, clearance[0]) - 1e-9).all())
+        return self.body.stays_clear(ctx, np.column_stack([x, y, yaw]))
 
     def _send(self, kind: str, xy: tuple, yaw: Optional[float], pose: tuple, retries: int = 0) -> None:
         """Make the navigator pursue (x, y[, yaw]) (yaw None: any final heading)."""

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .. import _native, geometry
 from ..config import positive, require
+from ..control.footprint import BodyCheck
 from ..robot import RobotSpec
 from .costmap import PlanningError
 
@@ -143,14 +145,14 @@ class EscapeArc:
 
 def escape_arcs(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                 robot: RobotSpec, pose: Sequence[float], settings: LatticeSettings,
-                sweep_margin_m: float) -> List[EscapeArc]:
+                body: BodyCheck) -> List[EscapeArc]:
     """How a robot that cannot turn where it stands leaves the line it is on: the lattice moves
     straight along headings and turns in place, so a box parallel to a wall and a few
     centimetres beyond margin_m, with no room to turn anywhere along that wall, has no lattice
     way off it; an arc has. Arcs of ``ESCAPE_RADIUS_M`` forward, and backward where the lattice
     drives backward, each turning from the robot's yaw to the lattice heading next to the
-    nearest one on either side; kept where the body along them keeps ``sweep_margin_m`` off
-    every obstacle (or gets no nearer, when it starts nearer) and the footprint fits at the
+    nearest one on either side; kept where the body along them stays clear (``body``, a
+    controller's check: its margin, or no nearer than it starts) and the footprint fits at the
     end cell's centre at that heading (margin_m). Cheapest first. For a round robot, none (it
     turns wherever it stands)."""
     if robot.is_round:
@@ -161,6 +163,7 @@ def escape_arcs(occupancy: np.ndarray, resolution: float, origin: Sequence[float
     nearest = int(np.argmin(np.abs(np.remainder(yaws - yaw + math.pi, 2 * math.pi) - math.pi)))
     directions = (1, -1) if settings.reverse_cost_factor > 0 else (1,)
     occupancy = np.ascontiguousarray(occupancy, dtype=np.int8)
+    grid = SimpleNamespace(occupancy=occupancy, resolution=resolution, origin=origin)
     arcs = []
     for heading in ((nearest + 1) % len(yaws), (nearest - 1) % len(yaws)):
         turn = float(np.remainder(yaws[heading] - yaw + math.pi, 2 * math.pi) - math.pi)
@@ -172,15 +175,12 @@ def escape_arcs(occupancy: np.ndarray, resolution: float, origin: Sequence[float
             factor = 1.0 if direction > 0 else settings.reverse_cost_factor
             arc = EscapeArc(direction, turn, length, cell, heading,
                             (centre[0], centre[1], float(yaws[heading])), length * factor)
-            clearance = _native.footprint_clearance(
-                occupancy, resolution, (float(origin[0]), float(origin[1])), sweep,
-                **footprint_args(robot), max_m=sweep_margin_m,
-                occupied_threshold=settings.occupied_threshold,
-                unknown_is_obstacle=settings.unknown_is_obstacle)
-            if not (clearance >= min(sweep_margin_m, clearance[0]) - 1e-9).all():
+            if not body.stays_clear(grid, sweep):
                 continue
             r, c = cell
-            if not (geometry.inside(r, c, occupancy.shape) and 0 <= occupancy[r, c] < settings.occupied_threshold):
+            known_free = geometry.inside(r, c, occupancy.shape) and \
+                0 <= occupancy[r, c] < settings.occupied_threshold
+            if not known_free:
                 continue
             if footprint_clear(occupancy, resolution, origin, robot, np.array([arc.end]), settings)[0]:
                 arcs.append(arc)

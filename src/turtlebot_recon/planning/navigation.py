@@ -343,7 +343,7 @@ class Navigation:
             # Parallel to a wall with no room to turn anywhere along it, the lattice has no
             # way off the robot's line: an escape arc may have (planning.lattice.escape_arcs).
             for arc in escape_arcs(m.occupancy, m.resolution, m.origin, self.robot, pose,
-                                   self.lattice, self.s.follower.collision_margin_m):
+                                   self.lattice, self.body):
                 if not any(self._reaches(arc.end, goal) for goal in dict.fromkeys(goals)):
                     continue
                 self._clear_path()
@@ -437,9 +437,7 @@ class Navigation:
         inp = ControlInput(now_s=0.0, pose=pose, velocity=(0.0, 0.0), path=np.zeros((0, 2)),
                            goal_yaw=None, occupancy=m.occupancy, costmap=m.costmap,
                            resolution=m.resolution, origin=m.origin)
-        margin = self.s.follower.collision_margin_m
-        clearance = self.body.clearance(inp, ahead.poses(pose, 0.5 * margin), margin)
-        if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
+        if not self.body.stays_clear(inp, ahead.poses(pose, 0.5 * self.body.margin_m)):
             self._finish("failed", f"trapped at ({pose[0]:.2f}, {pose[1]:.2f}): the escape arc "
                                    f"would hit an obstacle")
             return 0.0, 0.0
@@ -454,8 +452,7 @@ class Navigation:
         margin = self.s.follower.collision_margin_m
         d = sign * np.arange(0.0, min(to_go, 0.1) + 1e-9, 0.5 * margin)
         poses = np.column_stack([x + d * math.cos(yaw), y + d * math.sin(yaw), np.full(len(d), yaw)])
-        clearance = self.body.clearance(inp, poses, margin)
-        if ((clearance < margin) & (clearance < clearance[0] - 1e-9)).any():
+        if not self.body.stays_clear(inp, poses):
             way = "backing" if sign < 0 else "driving on to where it backs"
             self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): {way} would hit an obstacle")
             return 0.0, 0.0
