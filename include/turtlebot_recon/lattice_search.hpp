@@ -134,6 +134,7 @@ class LatticeSearch {
         return true;
       });
       per_cost_unit_[k] = length_m_[k] * p_.cost_weight / (252.0 * entered_[k].size());
+      ends_cover_move_[k] = !fp_.round() && length_m_[k] < fp_.length_m;
       for (int side = 0; side < 2; ++side) {  // 0: to k + 1 (left), 1: to k - 1 (right)
         const int to = side == 0 ? (k + 1) % K_ : (k + K_ - 1) % K_;
         turn_rad_[k][side] = std::fabs(std::remainder(headings_[to].yaw_rad - hd.yaw_rad, 2 * kPi));
@@ -182,7 +183,16 @@ class LatticeSearch {
   // where no state of the cell is reachable. A Dijkstra over the same moves as plan() (no
   // goal, no heuristic), so a cell is finite exactly when plan() finds a path to it at some
   // heading. Seeds off the grid or whose pose collides are skipped. Call once per object.
-  void cost_to_come(const std::vector<LatticeSeed>& seeds, float* out) {
+  //
+  // turns_within_m: past this cost, a state whose cell lets the robot turn in place
+  // (turn_clear) becomes the cell itself, at every heading (one node instead of K: it can turn
+  // to any of them), and leaves it by any forward or backward move. Reach is unchanged (a
+  // path through such nodes is a lattice path that turns in place there, and each lattice
+  // path maps to one); costs up to turns_within_m are exact, beyond it they omit the turns
+  // made in such cells (lower bounds). Where most of a map lets the robot turn, K times fewer
+  // nodes.
+  void cost_to_come(const std::vector<LatticeSeed>& seeds, float* out,
+                    double turns_within_m = std::numeric_limits<double>::infinity()) {
     std::fill_n(out, static_cast<size_t>(rows_) * cols_, std::numeric_limits<float>::infinity());
     // Dial's buckets: every move costs at least its length (one cell or more; backward ones
     // reverse_cost_factor >= 1 times that), every turn turn_cost_m_per_rad x its angle.
@@ -204,6 +214,14 @@ class LatticeSearch {
     // costs may then exceed the least by that much.
     const double width = std::max(cheapest * (1.0 - 1e-9), 1e-3 * p_.resolution_m);
     BucketQueue open(width, std::max(dearest, seeds.empty() ? 0.0 : highest_seed - lowest_seed) + width);
+    // Queue ids: state s >= 0 (cell * K + k); a cell at every heading (past turns_within_m) is
+    // -(cell + 1).
+    std::vector<double> g_cell;
+    std::vector<std::uint8_t> closed_cell;
+    if (std::isfinite(turns_within_m)) {
+      g_cell.assign(n_cells_, std::numeric_limits<double>::infinity());
+      closed_cell.assign(n_cells_, 0);
+    }
     auto open_state = [&](int s, double g) {
       const int cell = s / K_, k = s % K_;
       if ((closed_[cell] >> k) & 1) return;
@@ -212,26 +230,60 @@ class LatticeSearch {
       g_[s] = g;
       open.push(g, s);
     };
+    auto open_cell = [&](int cell, double g) {
+      if (closed_cell[cell] || g >= g_cell[cell]) return;
+      g_cell[cell] = g;
+      open.push(g, -(cell + 1));
+    };
+    auto open_next = [&](int cell, int k, double g) {  // state (cell, k), or the cell past the bound
+      if (g > turns_within_m && turn_clear(cell)) open_cell(cell, g);
+      else open_state(cell * K_ + k, g);
+    };
+    auto record = [&](int cell, double g) {
+      const Cell c = unpadded(cell);
+      float& best = out[static_cast<size_t>(c.row) * cols_ + c.col];
+      best = std::min(best, static_cast<float>(g));
+    };
     for (const LatticeSeed& seed : seeds) {
       const Cell c = seed.cell;
       if (seed.heading < 0 || seed.heading >= K_ || !(seed.cost_m >= 0)) continue;
       if (!fits(c, seed.heading)) continue;
-      open_state(padded(c) * K_ + seed.heading, seed.cost_m);
+      open_next(padded(c), seed.heading, seed.cost_m);
     }
     while (!open.empty()) {
       const std::int32_t s = open.pop();
+      if (s < 0) {  // a cell at every heading: forward and backward along each
+        const int cell = -s - 1;
+        if (closed_cell[cell]) continue;
+        closed_cell[cell] = 1;
+        const double g = g_cell[cell];
+        record(cell, g);
+        for (int k = 0; k < K_; ++k) {
+          // Between two cells where the robot turns in place, a box moved along its own axis
+          // by less than its length sweeps only its poses at the two ends, which fit there:
+          // no sweep to check (a disc sweeps more than its two ends); backing there costs
+          // more than driving forward the other way.
+          const int ahead = cell + step_[k], behind = cell - step_[k];
+          if ((ends_cover_move_[k] && turnable(ahead)) ? centre_passes(cell, k) : forward_clear(cell, k))
+            open_next(ahead, k, g + forward_cost(cell, k));
+          if (!turnable(behind) && backward_clear(cell, k)) open_next(behind, k, g + backward_cost(cell, k));
+        }
+        continue;
+      }
       if (is_closed(s)) continue;
       const int cell = s / K_, k = s % K_;
-      closed_[cell] |= 1u << k;
       const double g = g_[s];
-      const Cell c = unpadded(cell);
-      float& best = out[static_cast<size_t>(c.row) * cols_ + c.col];
-      best = std::min(best, static_cast<float>(g));
-      if (forward_clear(cell, k)) open_state((cell + step_[k]) * K_ + k, g + forward_cost(cell, k));
-      if (backward_clear(cell, k)) open_state((cell - step_[k]) * K_ + k, g + backward_cost(cell, k));
-      if (turn_ok(cell, k, 0)) open_state(cell * K_ + (k + 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][0]);
+      if (g > turns_within_m && turn_clear(cell)) {  // opened below the bound, due above it
+        open_cell(cell, g);
+        continue;
+      }
+      closed_[cell] |= 1u << k;
+      record(cell, g);
+      if (forward_clear(cell, k)) open_next(cell + step_[k], k, g + forward_cost(cell, k));
+      if (backward_clear(cell, k)) open_next(cell - step_[k], k, g + backward_cost(cell, k));
+      if (turn_ok(cell, k, 0)) open_next(cell, (k + 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][0]);
       if (turn_ok(cell, k, 1))
-        open_state(cell * K_ + (k + K_ - 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][1]);
+        open_next(cell, (k + K_ - 1) % K_, g + p_.turn_cost_m_per_rad * turn_rad_[k][1]);
     }
   }
 
@@ -244,7 +296,7 @@ class LatticeSearch {
   // within snap_cells where some heading fits, at each heading that does. `extra` seeds join
   // them (the escape arcs of planning/lattice.py). Returns false (all +inf) when there is none.
   bool reach_from(Cell start, double yaw, int snap_cells, const std::vector<LatticeSeed>& extra,
-                  float* out) {
+                  float* out, double turns_within_m = std::numeric_limits<double>::infinity()) {
     std::vector<LatticeSeed> seeds;
     yaw = std::remainder(yaw, 2 * kPi);
     std::vector<int> order(K_);  // headings by angle to yaw
@@ -288,7 +340,7 @@ class LatticeSearch {
         }
     }
     seeds.insert(seeds.end(), extra.begin(), extra.end());
-    cost_to_come(seeds, out);
+    cost_to_come(seeds, out, turns_within_m);
     return !seeds.empty();
   }
 
@@ -457,6 +509,16 @@ class LatticeSearch {
     for (std::int64_t e : entered_[k])
       if (cost_[a + e] >= kLethalObstacle) return false;
     return move_[k].clear(obstacle_.data(), a, d2_[a]);
+  }
+
+  // Padded cell `a` known, and the robot turns in place there (its poses at every heading fit).
+  bool turnable(int a) { return cost_[a] < kInscribedObstacle && turn_clear(a); }
+
+  // The centre's cells on the forward move from `a` along heading k all known and free.
+  bool centre_passes(int a, int k) const {
+    for (std::int64_t e : entered_[k])
+      if (cost_[a + e] >= kLethalObstacle) return false;
+    return true;
   }
 
   // Its cost: L (1 + cost_weight * mean graded cost of the entered cells / 252).
@@ -654,6 +716,7 @@ class LatticeSearch {
   std::array<double, 16> length_m_{};                   // its length
   std::array<std::vector<std::int64_t>, 16> entered_;   // the cells its centre enters
   std::array<double, 16> per_cost_unit_{};              // L cost_weight / (252 cells entered)
+  std::array<bool, 16> ends_cover_move_{};              // the box's poses at both ends hold the move
   std::array<std::array<double, 2>, 16> turn_rad_{};    // to k + 1, to k - 1
   // Per padded cell:
   std::vector<std::uint8_t> obstacle_, known_, cost_;

@@ -115,8 +115,10 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
                                             double inflation_m, double cost_scaling_factor,
                                             double turn_cost_m_per_rad, int occupied_threshold,
                                             bool unknown_is_obstacle, double reverse_cost_factor,
-                                            const std::vector<std::tuple<int, int, int, double>>& extra_seeds) {
+                                            const std::vector<std::tuple<int, int, int, double>>& extra_seeds,
+                                            double turns_within_m) {
   const Shape s = grid_shape(occupancy, "lattice_cost_to_come", "occupancy");
+  if (!(turns_within_m >= 0)) fail("lattice_cost_to_come", "turns_within_m must be >= 0 (inf: everywhere)");
   if (!std::isfinite(start_yaw)) fail("lattice_cost_to_come", "start_yaw must be finite");
   if (!(std::isfinite(snap_radius_m) && snap_radius_m >= 0))
     fail("lattice_cost_to_come", "snap_radius_m must be >= 0");
@@ -133,7 +135,7 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
     py::gil_scoped_release release;
     tp::LatticeSearch search(occupancy.data(), s.rows, s.cols, footprint, params);
     search.reach_from({start.first, start.second}, start_yaw,
-                      static_cast<int>(snap_radius_m / resolution), extra, dst);
+                      static_cast<int>(snap_radius_m / resolution), extra, dst, turns_within_m);
   }
   return out;
 }
@@ -251,12 +253,15 @@ void register_lattice(py::module_& m) {
         py::arg("turn_cost_m_per_rad") = 0.325, py::arg("occupied_threshold") = 65,
         py::arg("unknown_is_obstacle") = false, py::arg("reverse_cost_factor") = 0.0,
         py::arg("extra_seeds") = std::vector<std::tuple<int, int, int, double>>{},
+        py::arg("turns_within_m") = std::numeric_limits<double>::infinity(),
         "float32 (rows, cols): the cheapest plan_lattice cost (m) from the robot at cell `start`\n"
         "with yaw start_yaw to each cell at its cheapest heading; inf where plan_lattice finds no\n"
         "path. Start states: every heading that fits where the turning disc does (each costing\n"
         "the turn), else the headings along the robot's line either way; when none fits, the\n"
         "nearest cell within snap_radius_m where one does; and extra_seeds, (row, col, heading,\n"
-        "cost_m) states (escape arcs), at their cost. All inf when there is none.");
+        "cost_m) states (escape arcs), at their cost. All inf when there is none. Past\n"
+        "turns_within_m, turns in cells where the robot can turn in place are not counted (one\n"
+        "node per such cell; the reach is the same, the costs there lower bounds).");
   m.def("footprint_costmap", &py_footprint_costmap, py::arg("occupancy"), py::arg("resolution"),
         py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
         py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,

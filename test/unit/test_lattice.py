@@ -544,6 +544,38 @@ def test_cost_to_come_is_the_least_plan_cost_from_a_lattice_heading(robot):
     assert compared >= 30
 
 
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_turns_within_m_keeps_the_reach_and_the_near_costs(robot):
+    # Past turns_within_m a cell where the robot turns in place is one node (any heading):
+    # the same cells are finite (random clutter, and the 0.45 m corner only backing gets the
+    # box round), costs up to the bound are the exact ones, costs beyond it are at most the
+    # exact ones (the turns there are not counted) and, where paths turn, less.
+    # (Dense clutter, seeds 18 and 27: a disc moved between two cells where it fits may still
+    # graze a corner between them; a box moved along its axis may not.)
+    settings = LatticeSettings.for_robot(robot)
+    maps = [(random_blocks(np.random.default_rng(seed), 30), seed) for seed in (18, 27)]
+    maps += [(l_corridor(room), None) for room in (False, True)]
+    dropped = 0
+    for occ, seed in maps:
+        start = centre(14, 10)
+        if seed is not None:
+            rng = np.random.default_rng(seed + 100)
+            free = roomy_cells(occ)
+            start = centre(*free[rng.integers(len(free))], yaw=rng.uniform(-math.pi, math.pi))
+        exact = reach(occ, robot, start)
+        assert np.isfinite(exact).sum() > 100
+        for bound in (0.0, 1.0):
+            field = lattice_cost_to_come(occ, RES, ORIGIN, robot, start, settings, 0.5,
+                                         turns_within_m=bound)
+            finite = np.isfinite(exact)
+            assert np.array_equal(np.isfinite(field), finite), bound
+            assert (field[finite] <= exact[finite] + 1e-5).all()
+            near = finite & (exact <= bound)
+            assert np.allclose(field[near], exact[near], rtol=1e-6, atol=1e-6)
+            dropped += int((field[finite] < exact[finite] - 0.05).sum())
+    assert dropped > 100
+
+
 def test_cost_to_come_starts_as_the_navigator_does():
     # Facing away from a wall with the rear within margin_m of it (row 4): the box fits there
     # only across the wall or facing it, going nowhere; the first cell straight ahead where it

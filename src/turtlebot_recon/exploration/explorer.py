@@ -80,6 +80,8 @@ class ExplorerSettings:
     supervisor_rate_hz: float = 10.0     # supervisor ticks (sim time)
     seed: int = 0                        # the strategies' RNG (sampled)
     same_goal_m: float = 0.3             # a choice this close to the goal being pursued keeps it
+    field_turns_within_m: float = 5.0    # the field counts turns in place up to this cost (m);
+                                         # beyond, not where the robot can turn (reach unchanged)
     use_visits: bool = True              # give the strategy /visit_map's counts (recon's term)
     abort_retries: int = 30              # an aborted goal that is still reachable is re-sent this
                                          # often in a row before it counts as a failure
@@ -93,6 +95,7 @@ class ExplorerSettings:
     def validate(self, src: str) -> None:
         positive(src, self, "cycle_period_s", "supervisor_rate_hz", "same_goal_m", "scan_max_age_s",
                  "status_period_wall_s", "twist_check_s")
+        require(self.field_turns_within_m >= 0, src, "field_turns_within_m", "must be >= 0 (.inf: everywhere)")
         require(isinstance(self.abort_retries, int) and self.abort_retries >= 0, src, "abort_retries",
                 "must be an integer >= 0")
         require(self.scan_margin_m >= 0, src, "scan_margin_m", "must be >= 0")
@@ -365,7 +368,7 @@ class Explorer:
         cell = xy_to_cell(pose[:2], res, origin)
         escapes = escape_arcs(occ, res, origin, self.robot, pose, self.lattice, self.body)
         field = lattice_cost_to_come(occ, res, origin, self.robot, pose, self.lattice,
-                                     self.fs.snap_radius_m, escapes)
+                                     self.fs.snap_radius_m, escapes, self.s.field_turns_within_m)
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,

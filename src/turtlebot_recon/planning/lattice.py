@@ -230,7 +230,8 @@ def plan_lattice(occupancy: np.ndarray, resolution: float, origin: Sequence[floa
 def lattice_cost_to_come(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
                          robot: RobotSpec, pose: Sequence[float], settings: LatticeSettings,
                          snap_radius_m: float = 0.5,
-                         escapes: Sequence[EscapeArc] = ()) -> np.ndarray:
+                         escapes: Sequence[EscapeArc] = (),
+                         turns_within_m: float = math.inf) -> np.ndarray:
     """float32 (rows, cols): the cheapest ``plan_lattice`` cost (m) from the robot at ``pose``
     (x, y, yaw) to each cell, at whichever heading is cheapest; +inf where the lattice finds no
     path, so a cell is finite exactly when ``plan_lattice`` reaches it. This is where the robot
@@ -238,14 +239,20 @@ def lattice_cost_to_come(occupancy: np.ndarray, resolution: float, origin: Seque
     reach (a slot it cannot turn into). The robot starts as the navigator does: at every
     heading that fits where it can turn, else along the line it is on (either way: it backs
     out), else from the nearest cell within ``snap_radius_m`` where it fits; and from the ends of
-    ``escapes`` (``escape_arcs``), at their cost."""
+    ``escapes`` (``escape_arcs``), at their cost.
+
+    ``turns_within_m`` (m of cost): beyond it, the turns the robot makes in place where it can
+    turn in place are not counted; there a cell is one search node instead of one per heading
+    (~K times cheaper where most of the map lets the robot turn). Which cells are finite does
+    not change; costs up to it are exact, beyond it lower bounds (short by those turns)."""
     settings = settings.with_robot(robot)
     settings.validate("LatticeSettings")
     start = geometry.xy_to_cell(pose[:2], resolution, origin)
     return _native.lattice_cost_to_come(
         occupancy, resolution, start, float(pose[2]), float(snap_radius_m),
         **search_args(robot, settings),
-        extra_seeds=[(a.cell[0], a.cell[1], a.heading, a.cost_m) for a in escapes])
+        extra_seeds=[(a.cell[0], a.cell[1], a.heading, a.cost_m) for a in escapes],
+        turns_within_m=float(turns_within_m))
 
 
 def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec,
