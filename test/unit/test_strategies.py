@@ -356,26 +356,6 @@ def test_recon_hysteresis(corridor):
     assert s.choose([make_frontier(c, f.cells, id=f.id) for f in fs], c, GoalBook()).id == 1
 
 
-def test_recon_goes_on_along_its_tour_once_its_goal_is_gone(corridor):
-    ctx, at = corridor
-    up = dataclasses.replace(ctx, robot_yaw=math.pi / 2)
-    left, right = at(20, 104)                                # x = 1.025 and 5.225
-    here = make_frontier(up, column(58, range(5, 16)), id=2, gain=2000)   # x = 2.925
-    s = Recon()
-    # robot x 3.025: the big frontier beside it first, then left, then right (0.1 + 1.9 + 4.2)
-    assert s.choose([left, right, here], up, GoalBook()).id == 2
-    assert [round(x, 3) for x, _ in s.last_tour] == [2.925, 1.025, 5.225]
-    # it was explored on the way; robot x 3.325: right first is 0.4 m shorter (1.9 + 4.2 vs
-    # 2.3 + 4.2), which a fresh tour takes; the tour's next goal, left, is kept (0.4 < 1.0)
-    c = make_ctx(np.zeros((20, 240)), (10, 66), yaw=math.pi / 2)
-    rest = [make_frontier(c, f.cells, id=f.id) for f in (left, right)]
-    assert Recon().choose(rest, c, GoalBook()).id == 1
-    assert s.choose(rest, c, GoalBook()).id == 0
-    # robot x 4.025: right is 1.8 m shorter -> the tour is given up
-    c = make_ctx(np.zeros((20, 240)), (10, 80), yaw=math.pi / 2)
-    assert s.choose([make_frontier(c, f.cells, id=f.id) for f in (left, right)], c, GoalBook()).id == 1
-
-
 def test_recon_uses_path_distance_not_euclidean():
     """4 x 4 m; a wall at row 40 over cols 0..69 (x < 3.5), open at cols 70..79. Robot at
     (30, 20) = (1.025, 1.525). A: goal (50, 20) just above the wall, 1.0 m away in a

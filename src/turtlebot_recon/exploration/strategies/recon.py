@@ -61,11 +61,7 @@ class Recon:
     insertion + 2-opt from the robot (``tour.solve``) and the first is chosen, so the robot
     finishes one end of the building before crossing to the other. Hysteresis: the last goal
     is kept while the best tour that starts with it is at most max(hysteresis_m,
-    hysteresis_ratio * |best|) longer than the best tour; once it is gone (explored on the way,
-    reached), the same holds for the next goal of the last tour that is still there, so that
-    the robot goes on along its tour instead of turning back whenever a fresh tour from where
-    it stands happens to start at the other end (in open space the two directions round a
-    ring of frontiers cost nearly the same).
+    hysteresis_ratio * |best|) longer than the best tour.
 
     Candidates: usable goals (reachable, affordable, not blacklisted; a frontier that
     survived an arrival at its goal comes with another viewpoint as its goal, see
@@ -79,7 +75,8 @@ class Recon:
 
     def __init__(self, settings: ReconSettings = ReconSettings()):
         self.settings = settings
-        self.last_tour: List[Point] = []   # goals in tour order (the hysteresis; display)
+        self.last_goal: Optional[Point] = None
+        self.last_tour: List[Point] = []   # goals in tour order, for display
 
     def first_leg(self, f: Frontier, ctx: Context) -> float:
         s = self.settings
@@ -96,7 +93,7 @@ class Recon:
         s = self.settings
         cands = usable(frontiers, ctx, book)
         if not cands:
-            self.last_tour = []
+            self.last_goal, self.last_tour = None, []
             return None
         legs = np.array([self.first_leg(f, ctx) for f in cands])
         keep = np.argsort(legs, kind="stable")[:s.tour_max_clusters]
@@ -116,15 +113,18 @@ class Recon:
             if pick != order[0]:
                 order.remove(pick)
                 order.insert(0, pick)
+        self.last_goal = cands[pick].goal
         self.last_tour = [cands[i].goal for i in order]
         return cands[pick]
 
     def _hysteresis(self, pick: int, best_m: float, D: np.ndarray, cands: List[Frontier]) -> int:
-        """Index of the last tour's first goal still a candidate (the last goal, or once that
-        is gone, explored or reached, the goal after it) if it is nearly as good, else pick."""
+        """Index of the last goal if it is still a candidate and nearly as good, else pick."""
         s = self.settings
-        last = self._still_there(cands)
-        if last is None or last == pick:
+        if self.last_goal is None:
+            return pick
+        dist = [distance(self.last_goal, f.goal) for f in cands]
+        last = int(np.argmin(dist))
+        if dist[last] > s.match_radius_m or last == pick:
             return pick
         node = last + 1                    # forced first: solve the rest from there
         rest = [node] + [i for i in range(1, len(D)) if i != node]
@@ -132,13 +132,3 @@ class Recon:
         forced_m = D[0, node] + tour.length(sub, tour.solve(sub))
         margin = max(s.hysteresis_m, s.hysteresis_ratio * abs(best_m))
         return last if forced_m <= best_m + margin else pick
-
-    def _still_there(self, cands: List[Frontier]) -> Optional[int]:
-        """Index of the candidate within match_radius_m of the last tour's first goal that has
-        one, in tour order; None if none has."""
-        for goal in self.last_tour:
-            dist = [distance(goal, f.goal) for f in cands]
-            nearest = int(np.argmin(dist))
-            if dist[nearest] <= self.settings.match_radius_m:
-                return nearest
-        return None
