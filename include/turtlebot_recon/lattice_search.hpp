@@ -272,11 +272,7 @@ class LatticeSearch {
       }
       if (is_closed(s)) continue;
       const int cell = s / K_, k = s % K_;
-      const double g = g_[s];
-      if (g > turns_within_m && turn_clear(cell)) {  // opened below the bound, due above it
-        open_cell(cell, g);
-        continue;
-      }
+      const double g = g_[s];   // <= turns_within_m where the robot turns in place (open_next)
       closed_[cell] |= 1u << k;
       record(cell, g);
       if (forward_clear(cell, k)) open_next(cell + step_[k], k, g + forward_cost(cell, k));
