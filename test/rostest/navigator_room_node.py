@@ -11,7 +11,7 @@ import rostest
 from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
-from nav_msgs.msg import Odometry, Path
+from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from std_msgs.msg import UInt32
 
 START = (1.0, 1.1)
@@ -35,6 +35,9 @@ class NavigatorRoom(unittest.TestCase):
         client = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
         self.assertTrue(client.wait_for_server(rospy.Duration(60)))
         rospy.sleep(3.0)                                   # let the mapper see the room
+        deadline = rospy.get_time() + 30.0                 # (a slow machine: its first scans in)
+        while not any(v >= 0 for v in rospy.wait_for_message("/map", OccupancyGrid, timeout=30).data):
+            self.assertLess(rospy.get_time(), deadline, "the mapper published no known cell")
         client.send_goal(MoveBaseGoal(target_pose=goal_pose(1.5, 0.5)))   # world (2.5, 1.6)
         self.assertTrue(client.wait_for_result(rospy.Duration(60)))
         self.assertEqual(client.get_state(), GoalStatus.SUCCEEDED, client.get_goal_status_text())

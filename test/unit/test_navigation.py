@@ -107,6 +107,29 @@ def test_blocked_counts_once_per_map(nav, monkeypatch):
     assert nav.status == "failed" and "blocked on 4 maps in a row" in nav.reason and "unknown cell ahead" in nav.reason
 
 
+def test_a_goal_sent_before_the_map_covers_the_robot_waits_for_the_next_maps():
+    """At startup a goal may come before the mapper has inserted a scan: the robot's own cell is
+    unknown. The navigator holds (no command) and plans on the next map that covers the robot;
+    it fails with a reason only after max_blocked_replans (3) maps more without one."""
+    nav = Navigation(NavigationSettings(), load_robot("turtlebot3_burger"))
+    blank = np.full((60, 80), -1, np.int8)
+    nav.update_map(blank, RES, (0.0, 0.0))
+    nav.set_goal(3.0, 2.0)
+    assert nav.step(0.0, (1.0, 1.0, 0.0), (0.0, 0.0)) == (0.0, 0.0)
+    assert nav.status == "active", nav.reason
+    nav.update_map(room(), RES, (0.0, 0.0))          # the first scans are in
+    v, _ = nav.step(0.1, (1.0, 1.0, 0.0), (0.0, 0.0))
+    assert nav.status == "active" and len(nav.path_poses) > 10
+    nav.set_goal(3.0, 2.0)
+    for k in range(5):                               # never covered: fails on the 4th map
+        nav.update_map(blank, RES, (0.0, 0.0))
+        for i in range(3):
+            nav.step(k + 0.1 * i, (1.0, 1.0, 0.0), (0.0, 0.0))
+        if k < 3:
+            assert nav.status == "active", f"failed on map {k + 1}: {nav.reason}"
+    assert nav.status == "failed" and "no known cell under the robot on 4 maps in a row" in nav.reason
+
+
 def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():
     # a 0.2 m pillar at (2.0, 1.5); the waffle_pi stands 2 cm off its cell's centre near it,
     # facing the plan's first waypoint. (A grid shortcut checked from the cell's centre once made

@@ -141,9 +141,13 @@ class Navigation:
         occupancy = np.asarray(occupancy, dtype=np.int8)
         costmap = footprint_costmap(occupancy, resolution, self.robot, self.lattice)
         self.map = MapView(occupancy, costmap, resolution, (float(origin[0]), float(origin[1])))
-        if self.status == "active" and len(self.path_poses) \
-                and not self._poses_clear(self.path_poses).all():
-            self._need_plan = True      # the map changed under the path
+        if self.status != "active":
+            return
+        if len(self.path_poses):
+            if not self._poses_clear(self.path_poses).all():
+                self._need_plan = True  # the map changed under the path
+        elif self._blocked_map is not None:
+            self._need_plan = True      # waiting for a map that covers the robot
 
     # ------------------------------------------------------------------ loop
     def step(self, now_s: float, pose: tuple, velocity: tuple) -> tuple:
@@ -180,19 +184,23 @@ class Navigation:
             # at ~1 Hz, the controller runs at 10 Hz; the cell ahead may be unknown only
             # because the last map predates the robot's arrival). Hold; count and replan once
             # per map (the robot stands still, so a replan on the same map gives the same path).
-            if self._blocked_map is self.map:
-                return 0.0, 0.0
-            self._blocked_map = self.map
-            self._blocked += 1
-            if self._blocked > self.s.max_blocked_replans:
-                self._finish("failed", f"blocked on {self._blocked} maps in a row near "
-                                       f"({pose[0]:.2f}, {pose[1]:.2f})"
-                                       + (f": {out.detail}" if out.detail else ""))
-            else:
-                self._need_plan = True
+            self._hold("blocked", f"near ({pose[0]:.2f}, {pose[1]:.2f})", out.detail)
             return 0.0, 0.0
         self._blocked, self._blocked_map = 0, None
         return out.linear_mps, out.angular_radps
+
+    def _hold(self, what: str, where: str, detail: str = "") -> None:
+        """Stand still and plan again on the next map: counted once per map, the goal fails
+        when ``what`` happens on more than max_blocked_replans maps in a row."""
+        if self._blocked_map is self.map:
+            return
+        self._blocked_map = self.map
+        self._blocked += 1
+        if self._blocked > self.s.max_blocked_replans:
+            self._finish("failed", f"{what} on {self._blocked} maps in a row {where}"
+                                   + (f": {detail}" if detail else ""))
+        else:
+            self._need_plan = True
 
     # ------------------------------------------------------------------ planning
     def _poses_clear(self, poses: np.ndarray) -> np.ndarray:
@@ -300,8 +308,15 @@ class Navigation:
         anchor = self._anchor(pose) if anchored else None
         start = anchor or self._start(pose)
         if start is None:
+            where = f"({pose[0]:.2f}, {pose[1]:.2f})"
+            cell = m.cell(pose[0], pose[1])
+            if not m.inside(cell) or m.occupancy[cell] < 0:
+                # a goal sent before the mapper has inserted a scan (startup): the map does not
+                # cover the robot yet; wait for the next maps rather than fail on the first
+                self._hold("no known cell under the robot", f"at {where}")
+                return False
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
-                                          f"({pose[0]:.2f}, {pose[1]:.2f}) where its footprint fits")
+                                          f"{where} where its footprint fits")
         gx, gy, gyaw = self.goal
         if math.hypot(gx - pose[0], gy - pose[1]) <= self.s.follower.xy_goal_tolerance_m:
             # there already (a manoeuvre may end at the goal, a lattice line beside its cell):
