@@ -20,7 +20,7 @@ DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-explore worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
@@ -88,6 +88,9 @@ bench-sim: build
 
 bench-map: build
 	$(ENV) python test/benchmarks/bench_map.py
+
+bench-tags: build
+	$(ENV) python test/benchmarks/bench_tags.py
 
 # The bench's own defaults (all six strategies and the oracle, the shipped, real and held-out
 # worlds, 3 seeds, half the cores, waffle_pi but the burger in the maze, garden and doors,

@@ -17,6 +17,7 @@ void register_mapping(py::module_& m);    // occupancy_grid.cpp
 void register_planning(py::module_& m);   // planning.cpp
 void register_exploration(py::module_& m);  // exploration.cpp
 void register_lattice(py::module_& m);    // lattice.cpp
+void register_perception(py::module_& m);  // camera_coverage.cpp
 
 namespace {
 
@@ -60,4 +61,5 @@ PYBIND11_MODULE(_native, m) {
   register_planning(m);
   register_exploration(m);
   register_lattice(m);
+  register_perception(m);
 }

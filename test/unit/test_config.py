@@ -14,6 +14,8 @@ from turtlebot_recon.exploration.frontiers import FrontierSettings
 from turtlebot_recon.exploration.goals import GoalBookSettings
 from turtlebot_recon.exploration.strategies import DEFAULT_STRATEGY, STRATEGIES
 from turtlebot_recon.mapping.mapper import MapperSettings
+from turtlebot_recon.perception.detector import DetectorNodeSettings
+from turtlebot_recon.perception.tracker import TrackerNodeSettings
 from turtlebot_recon.planning.lattice import LatticeSettings
 from turtlebot_recon.planning.navigation import NavigationSettings
 from turtlebot_recon.robot import CONFIG_DIR, RobotSpec, load_robot
@@ -29,6 +31,7 @@ CONFIG = TOP / "config"
 # Nested dataclass fields (mapper.yaml's grid, navigator.yaml's follower, oracle.yaml's route)
 # are part of their class's block, except those with a file of their own (OWN_FILE), which the
 # launch files load into the node's namespace under the field's name.
+
 BLOCKS = {
     ("sim_bridge.yaml", ()): SimSettings,
     ("mapper.yaml", ()): MapperSettings,
@@ -42,6 +45,8 @@ BLOCKS = {
     ("explorer.yaml", ()): ExplorerSettings,
     ("explorer.yaml", ("frontiers",)): FrontierSettings,
     ("explorer.yaml", ("goals",)): GoalBookSettings,
+    ("tag_detector.yaml", ()): DetectorNodeSettings,
+    ("tag_tracker.yaml", ()): TrackerNodeSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
 OWN_FILE = {LatticeSettings: "lattice.yaml"}

@@ -307,3 +307,17 @@ def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypat
     empty = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
     write_run(tmp_path / "bare", report, empty, RunLog(START, 0.02))
     assert sorted(os.listdir(tmp_path / "bare")) == ["coverage.csv", "path.csv", "report.json", "report.md"]
+
+
+def test_tag_metrics_match_by_marker_set_and_id_and_count_false_tags():
+    from turtlebot_recon.evaluation.metrics import tag_metrics
+    truth = [("tag36h11", 1, 0.0, 0.0, 0.25), ("tag36h11", 2, 5.0, 0.0, 0.25), ("aruco_6x6_100", 1, 2.0, 2.0, 0.2)]
+    est = [("tag36h11", 1, 0.03, 0.0, 0.25),         # 3 cm off
+           ("aruco_6x6_250", 1, 2.0, 2.01, 0.2),     # the same marker under a larger dictionary
+           ("tag36h11", 2, 3.0, 0.0, 0.25),          # 2 m off: false
+           ("tag36h11", 9, 1.0, 1.0, 0.25)]          # no such tag: false
+    m = tag_metrics(truth, est)
+    assert m == {"tags_placed": 3, "tags_confirmed": 4, "tag_recall": pytest.approx(2 / 3, abs=1e-4),
+                 "tag_error_median_m": pytest.approx(0.02), "tag_error_max_m": pytest.approx(0.03),
+                 "false_tags": 2}
+    assert tag_metrics(truth, [])["tag_recall"] == 0.0

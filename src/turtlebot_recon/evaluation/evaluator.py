@@ -21,7 +21,7 @@ from ..config import positive, require
 from ..robot import RobotSpec
 from ..sim.world import World
 from .coverage import CoverageTracker, world_to_map
-from .metrics import distance_until, map_precision
+from .metrics import distance_until, map_precision, tag_metrics
 from .report import plot_coverage, plot_map, write_report
 
 # The files of a run directory that write_run writes; the mapper saves map.pgm / map.yaml there
@@ -136,10 +136,22 @@ class RunLog:
         return np.column_stack([p[:, 0] - (self.t0_s or 0.0), world_to_map(p[:, 1:], self.start)])
 
 
+def tag_report(world: World, tags: Optional[list]) -> dict:
+    """The tag keys: null without a tag tracker, else ``tag_metrics`` against the world's tags
+    (brought into the map frame)."""
+    if tags is None:
+        return dict.fromkeys(("tags_placed", "tags_confirmed", "tag_recall", "tag_error_median_m",
+                              "tag_error_max_m", "false_tags"))
+    xy = world_to_map(np.array([[t.x, t.y] for t in world.tags], float).reshape(-1, 2), world.start)
+    truth = [(t.family, t.id, x, y, t.z) for t, (x, y) in zip(world.tags, xy)]
+    return tag_metrics(truth, tags)
+
+
 def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, coverage: CoverageTracker,
                log: RunLog, end_s: float, wall_time_s: float, reason: str, strategy: Optional[str],
-               final_map: Optional[FinalMap] = None) -> dict:
-    """report.json's content: DESIGN §6 keys (tags null: not measured yet), then extras.
+               final_map: Optional[FinalMap] = None, tags: Optional[list] = None) -> dict:
+    """report.json's content: DESIGN §6 keys, then extras. ``tags``: the confirmed tags at the
+    end, (family, id, x, y, z) in the map frame; None when no tag tracker ran (tag keys null).
     ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
     ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
     ValueError if the clock never started (the node starts it at the latest when finishing)."""
@@ -157,8 +169,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
     d99 = distance_until(log.path_in_map(), report["time_to_99_s"])
     report.update({
         "ate_m": log.ate_m(),
-        "tags_placed": None, "tags_confirmed": None, "tag_recall": None, "tag_error_median_m": None,
-        "tag_error_max_m": None, "false_tags": None,
+        **tag_report(world, tags),
         "distance_m": round(log.distance_m, 3), "collisions": log.collisions,
         "sim_time_s": round(sim_s, 2), "wall_time_s": round(wall_time_s, 2),
         "rtf": round(sim_s / wall_time_s, 2) if wall_time_s > 0 else None, "finished_reason": reason,

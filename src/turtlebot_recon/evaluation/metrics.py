@@ -62,3 +62,28 @@ def distance_until(path: np.ndarray, t_s):
     p = np.asarray(path, dtype=float).reshape(-1, 3)
     p = p[p[:, 0] <= t_s]
     return float(np.hypot(*np.diff(p[:, 1:], axis=0).T).sum()) if len(p) > 1 else 0.0
+
+
+FALSE_TAG_M = 0.5      # a confirmed tag farther than this from its true place counts as false
+
+
+def tag_metrics(true_tags: list, estimated: list) -> dict:
+    """DESIGN §6's tag keys. ``true_tags``: (family, id, x, y, z) in the map frame (every tag
+    the world places); ``estimated``: (family, id, x, y, z) of the confirmed tags. A confirmed
+    tag matches the true one of its marker set and id if within FALSE_TAG_M (3-D); one with no
+    such true tag is false. Errors are 3-D distances (m) of the matched ones."""
+    from ..perception.families import marker_set
+    truth = {(marker_set(f), int(i)): np.array([x, y, z], float) for f, i, x, y, z in true_tags}
+    errors, false = [], 0
+    for f, i, x, y, z in estimated:
+        t = truth.get((marker_set(f), int(i)))
+        e = None if t is None else float(np.linalg.norm(np.array([x, y, z], float) - t))
+        if e is None or e > FALSE_TAG_M:
+            false += 1
+        else:
+            errors.append(e)
+    return {"tags_placed": len(truth), "tags_confirmed": len(estimated),
+            "tag_recall": round(len(errors) / len(truth), 4) if truth else None,
+            "tag_error_median_m": round(float(np.median(errors)), 4) if errors else None,
+            "tag_error_max_m": round(float(np.max(errors)), 4) if errors else None,
+            "false_tags": false}

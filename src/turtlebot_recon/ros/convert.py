@@ -87,17 +87,6 @@ def image_rgb8(rgb: np.ndarray, frame: str, t_s: float) -> Image:
     return m
 
 
-def image_to_array(m: Image) -> np.ndarray:
-    """(H, W, C) uint8 from rgb8 / bgr8 / mono8 images (RGB channel order out)."""
-    channels = {"rgb8": 3, "bgr8": 3, "mono8": 1, "rgba8": 4, "bgra8": 4}
-    if m.encoding not in channels:
-        raise ValueError(f"unsupported image encoding '{m.encoding}'")
-    c = channels[m.encoding]
-    a = np.frombuffer(m.data, np.uint8).reshape(m.height, m.step)[:, : m.width * c]
-    a = a.reshape(m.height, m.width, c)
-    return a[..., 2::-1] if m.encoding.startswith("bgr") else a[..., :3]
-
-
 def camera_info(spec: CameraSpec, k: np.ndarray, t_s: float) -> CameraInfo:
     m = CameraInfo()
     m.header.stamp, m.header.frame_id = stamp(t_s), spec.optical_frame_id

@@ -9,27 +9,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-APRILTAG_FAMILIES = {
-    "tag16h5": cv2.aruco.DICT_APRILTAG_16h5,
-    "tag25h9": cv2.aruco.DICT_APRILTAG_25h9,
-    "tag36h10": cv2.aruco.DICT_APRILTAG_36h10,
-    "tag36h11": cv2.aruco.DICT_APRILTAG_36h11,
-}
-
-
-def dictionary_id(family: str) -> int:
-    """OpenCV dictionary for a family name: tag36h11, ..., aruco_6x6_100, aruco_4x4_50, ..."""
-    if family in APRILTAG_FAMILIES:
-        return APRILTAG_FAMILIES[family]
-    name = "DICT_" + family.upper().removeprefix("ARUCO_").removeprefix("DICT_")
-    if family.lower().startswith("aruco_") and hasattr(cv2.aruco, name):
-        return getattr(cv2.aruco, name)
-    raise ValueError(f"unknown marker family '{family}' (known: {sorted(APRILTAG_FAMILIES)} "
-                     "and aruco_<N>x<N>_<count>, e.g. aruco_6x6_100)")
-
-
-def dictionary(family: str) -> cv2.aruco.Dictionary:
-    return cv2.aruco.getPredefinedDictionary(dictionary_id(family))
+from ..perception.families import dictionary  # noqa: F401  (re-exported for the tests)
 
 
 def marker_bits(family: str) -> int:

@@ -34,6 +34,8 @@ from .drive import DiffDrive, WheelOdometry
 from .markers import full_scale, marker_image
 from .world import World, WorldError
 
+TAG_PROUD_M = 0.002    # markers are drawn this far in front of their wall (no z-fighting)
+
 log = logging.getLogger(__name__)
 
 WORLD_GROUP, ROBOT_GROUP = 1, 2   # rays carry group 1, so walls must accept group 1
@@ -190,8 +192,13 @@ class Simulator:
                 pb.GEOM_BOX, halfExtents=(0.5 * r.footprint_length_m, 0.5 * r.footprint_width_m,
                                           0.5 * r.body_height_m),
                 collisionFramePosition=(r.footprint_offset_x_m, 0, 0), physicsClientId=self.client)
+        # The camera sits inside the body's box and the body is placed only where a contact
+        # query needs it: without a visual shape of its own PyBullet would render the collision
+        # shape, where it was last placed, into the camera image. A speck under the floor instead.
+        vis = pb.createVisualShape(pb.GEOM_SPHERE, radius=1e-4, visualFramePosition=(0, 0, -1.0),
+                                   physicsClientId=self.client)
         # Mass > 0 so that Bullet reports its contacts with the static walls; it is never stepped.
-        body = pb.createMultiBody(baseMass=1.0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=-1,
+        body = pb.createMultiBody(baseMass=1.0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=vis,
                                   physicsClientId=self.client)
         pb.setCollisionFilterGroupMask(body, -1, ROBOT_GROUP, WORLD_GROUP, physicsClientId=self.client)
         return body
@@ -221,7 +228,7 @@ class Simulator:
         vis = pb.createVisualShape(pb.GEOM_MESH, fileName=str(quad), meshScale=(edge, edge, 1.0),
                                    physicsClientId=self.client)
         body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=-1, baseVisualShapeIndex=vis,
-                                  basePosition=(tag.x + 0.002 * n[0], tag.y + 0.002 * n[1], tag.z),
+                                  basePosition=(tag.x + TAG_PROUD_M * n[0], tag.y + TAG_PROUD_M * n[1], tag.z),
                                   baseOrientation=rot.as_quat(), physicsClientId=self.client)
         tex = pb.loadTexture(str(png), physicsClientId=self.client)
         pb.changeVisualShape(body, -1, textureUniqueId=tex, rgbaColor=(1, 1, 1, 1), physicsClientId=self.client)
@@ -373,6 +380,17 @@ class Simulator:
         cam = self.robot.camera
         f = cam.fx_px
         return np.array([[f, 0.0, 0.5 * (cam.width_px - 1)], [0.0, f, 0.5 * (cam.height_px - 1)], [0.0, 0.0, 1.0]])
+
+    def optical_pose(self) -> np.ndarray:
+        """4x4 pose of the camera's optical frame (x right, y down, z forward) in the world,
+        where render_camera's image is taken from."""
+        cam = self.robot.camera
+        x, y, yaw = self.sensor_pose(cam.x_m, cam.y_m)
+        c, s = math.cos(yaw), math.sin(yaw)
+        T = np.eye(4)
+        T[:3, :3] = np.array([[s, 0.0, c], [-c, 0.0, s], [0.0, -1.0, 0.0]])
+        T[:3, 3] = (x, y, cam.z_m)
+        return T
 
     def render_camera(self) -> np.ndarray:
         """RGB image (height, width, 3) uint8 from the camera's current pose (pinhole, no distortion)."""

@@ -17,6 +17,7 @@ from scipy import ndimage
 
 from ..config import load_yaml, ConfigError
 from ..geometry import cell_to_xy, inside, xy_to_cell
+from ..perception.families import canonical, marker_count, marker_set
 from ..mapping.map_io import MAP_KEYS, MapError, map_number, occupancy_classes
 
 log = logging.getLogger(__name__)
@@ -40,6 +41,15 @@ class Tag:
     z: float      # m, height of the marker centre
     yaw: float    # rad, direction of the marker's outward normal
     size: float   # m, edge of the black square
+
+    def matrix(self) -> np.ndarray:
+        """4x4 pose of the marker frame in the world (perception.detection's convention: z its
+        outward normal, y up, x to the right of someone reading it)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        T = np.eye(4)
+        T[:3, :3] = np.array([[-s, 0.0, c], [c, 0.0, s], [0.0, 1.0, 0.0]])
+        T[:3, 3] = (self.x, self.y, self.z)
+        return T
 
 
 @dataclass(frozen=True)
@@ -129,7 +139,7 @@ def _load_world(src: Path) -> World:
                   free=free, wall_height=wall_height, start=(0.0, 0.0, 0.0), tags=())
     start = _start(world, meta.get("start"), src)
     tags = tuple(_tag(world, i, t, src) for i, t in enumerate(meta.get("tags") or []))
-    ids = [(t.family, t.id) for t in tags]
+    ids = [(marker_set(t.family), t.id) for t in tags]
     if len(set(ids)) != len(ids):
         raise WorldError(f"{src}: key 'tags': duplicate (family, id) pairs")
     return World(**{**world.__dict__, "start": start, "tags": tags})
@@ -171,7 +181,14 @@ def _tag(world: World, i: int, t, src: Path) -> Tag:
     unknown = sorted(set(t) - TAG_KEYS)
     if unknown:
         raise WorldError(f"{where}: unknown key(s) {unknown}")
-    tag = Tag(id=int(t["id"]), family=str(t.get("family", "tag36h11")), x=float(t["x"]),
+    try:
+        family = canonical(t.get("family", "tag36h11"))
+    except ValueError as exc:
+        raise WorldError(f"{where}: {exc}") from None
+    if not 0 <= int(t["id"]) < marker_count(family):
+        raise WorldError(f"{where}: id {t['id']} is not in family {family} "
+                         f"(0..{marker_count(family) - 1})")
+    tag = Tag(id=int(t["id"]), family=family, x=float(t["x"]),
               y=float(t["y"]), z=float(t.get("z", 0.25)), yaw=float(t["yaw"]),
               size=float(t.get("size", 0.16)))
     if not 0.0 < tag.size <= 2.0:

@@ -25,7 +25,11 @@ FREE, OCCUPIED, UNKNOWN = FREE_PX, OCCUPIED_PX, UNKNOWN_PX   # map_saver pixel v
 RES = 0.05                                  # m per pixel
 WALL_HEIGHT = 0.5                           # m
 TAG_Z = 0.25                                # m, marker centre height (mid-wall)
+ARUCO_Z = 0.20                              # m, hand-placed ArUco centres: the waffle_pi camera
+                                            # (0.104 m up, 48.8 deg vertical FOV) sees all of a
+                                            # 0.10 m marker there from 0.33 m on (at 0.25 m: 0.44 m)
 TAG_SIZES = {"tag36h11": 0.16, "aruco_6x6_100": 0.10}   # m, black-square edge
+FACING = {"E": 0.0, "N": math.pi / 2, "W": math.pi, "S": -math.pi / 2}   # marker normal's yaw
 ROBOT_RADIUS = 0.2                          # m, reachability checks
 START_CLEARANCE = 0.4                       # m
 
@@ -254,15 +258,38 @@ def make_meta(name, start, tags, res=RES):
             "wall_height": WALL_HEIGHT, "start": [round(float(v), 4) + 0.0 for v in start], "tags": tags}
 
 
-def _finish(cv, name, prefer, yaw, n_tags, rng, families=("tag36h11",), support=None, tags=None):
-    """Pick the start near building point ``prefer`` and place tags; returns (image, meta)."""
+def _finish(cv, name, prefer, yaw, n_tags, rng, families=("tag36h11",), support=None, tags=None, extra=()):
+    """Pick the start near building point ``prefer`` and place tags (sampled, or ``tags``),
+    then the hand-placed ``extra`` ones (see hand_tags); returns (image, meta)."""
     origin = (0.0, 0.0)
     free = cv.img == FREE
     start = find_start(free, cv.res, origin, (prefer[0] + cv.margin, prefer[1] + cv.margin), yaw)
+    reach = reachable(free, cv.res, origin, start[:2])
     if tags is None:
-        reach = reachable(free, cv.res, origin, start[:2])
         tags = place_tags(free, cv.res, origin, n_tags, rng, families, support, reach)
+    tags = list(tags) + hand_tags(cv, extra, support, reach, tags)
     return cv.img, make_meta(name, start, tags, cv.res)
+
+
+def hand_tags(cv, spots, support, reach, existing=()):
+    """Tags at hand-picked wall spots [(id, family, x, y, facing)], (x, y) the wall-surface
+    point in building metres (``cv.margin`` is added), facing 'E', 'N', 'W' or 'S' (FACING).
+    They come after the sampled tags, so those (and every rng draw) stay as they were: a
+    world's existing tags and benchmarks do not move.  ArUco markers hang at ARUCO_Z.
+    RuntimeError when a spot fails check_tag (on a wall of ``support``, free in front,
+    visible from ``reach``) or repeats a (family, id) pair."""
+    tags, seen = [], {(t["family"], t["id"]) for t in existing}
+    for tag_id, family, x, y, facing in spots:
+        z = ARUCO_Z if family.startswith("aruco_") else TAG_Z
+        tag = make_tag(tag_id, family, x + cv.margin, y + cv.margin, FACING[facing], z=z)
+        why = check_tag(cv.img == FREE, cv.res, (0.0, 0.0), tag["x"], tag["y"], tag["yaw"], tag["size"],
+                        support, reach)
+        if why or (family, tag_id) in seen:
+            raise RuntimeError("hand-placed tag %s %d at (%.3f, %.3f): %s"
+                               % (family, tag_id, tag["x"], tag["y"], why or "duplicate id"))
+        seen.add((family, tag_id))
+        tags.append(tag)
+    return tags
 
 
 def pockets(free, res, origin, reach, radius=ROBOT_RADIUS, min_pocket=1.0):
@@ -313,7 +340,8 @@ def write_world(directory, name, image, meta):
 
 # ------------------------------------------------------------------ the worlds
 def house(seed=1):
-    """About 15 x 10 m: hallway, living room, kitchen, 2 bathrooms, laundry, 2 bedrooms, study."""
+    """About 15 x 10 m: hallway, living room, kitchen, 2 bathrooms, laundry, 2 bedrooms, study;
+    11 tags: 9 sampled, an ArUco in a bedroom corner and one seen at grazing angles from the hallway."""
     rng = np.random.default_rng(seed)
     W, H = 15.0, 10.0
     cv = Canvas(W, H)
@@ -345,7 +373,11 @@ def house(seed=1):
     cv.circle(10.2, 6.05, 0.25)
     cv.circle(14.55, 5.0, 0.25)                     # hallway end: plant pot
     scatter_circles(cv, 2, (0.2, 0.3), 0.75, rng)   # 0.75 m gaps keep 0.7 m passages
-    return _finish(cv, "house", (1.0, 5.0), 0.0, 9, rng, support=walls)
+    extra = [(9, "aruco_6x6_100", 10.2, 9.8, "S"),   # corner: bedroom 2, 0.25 m from its east wall
+             # grazing: hallway (1.4 m) south wall, between doors; the north wall's doors are
+             # 1.55 m either side, so even through them it is seen 48 deg or more off its normal
+             (10, "tag36h11", 9.3, 4.3, "N")]
+    return _finish(cv, "house", (1.0, 5.0), 0.0, 9, rng, support=walls, extra=extra)
 
 
 def scatter_circles(cv, n, radii, gap, rng, keep=()):
@@ -369,8 +401,8 @@ def scatter_circles(cv, n, radii, gap, rng, keep=()):
 
 def maze(seed=2, n=11, cell=0.6, wall=0.1):
     """Perfect maze (seeded DFS) of n x n cells: corridors ``cell`` m, walls ``wall`` m, about
-    8 x 8 m, a 2 x 2-cell start room (a 0.6 m corridor cannot give 0.4 m start clearance) and
-    tags on dead-end walls facing down their corridor."""
+    8 x 8 m, a 2 x 2-cell start room (a 0.6 m corridor cannot give 0.4 m start clearance),
+    tags on dead-end walls facing down their corridor and an ArUco in the start room's corner."""
     rng = np.random.default_rng(seed)
     pitch, size = cell + wall, n * (cell + wall) + wall
     cv = Canvas(size, size)
@@ -405,12 +437,14 @@ def maze(seed=2, n=11, cell=0.6, wall=0.1):
         tags.append(make_tag(k, "tag36h11", x, y, math.atan2(dj, di)))
     # yaw 0: a start yaw off the grid's axes rasterises the 0.6 m corridors diagonally in the
     # robot's map, and a waffle_pi (0.514 m swept disc) no longer fits through them
-    return _finish(cv, "maze", (pitch, pitch), 0.0, 0, rng, tags=tags)
+    extra = [(4, "aruco_6x6_100", wall, wall + 0.25, "E")]   # corner: start room, west wall
+    return _finish(cv, "maze", (pitch, pitch), 0.0, 0, rng, tags=tags, extra=extra)
 
 
 def office(seed=3):
     """32 x 21 m office: two 1.8 m corridors joined by three cross corridors, 20 offices and
-    meeting rooms with 0.9 m doors, desks with chairs, 12 tags (every third aruco_6x6_100)."""
+    meeting rooms with 0.9 m doors, desks with chairs, 15 tags: 12 sampled (every third
+    aruco_6x6_100), two seen at grazing angles from corridors and one in a corridor's corner."""
     rng = np.random.default_rng(seed)
     W, H, T = 32.0, 21.0, 0.2
     cv = Canvas(W, H)
@@ -443,8 +477,13 @@ def office(seed=3):
             cv.rect(cx - 1.6, cy - 0.6, cx + 1.6, cy + 0.6)
         else:
             _desks(cv, x0, y0, x1, y1, dy, rng)
+    extra = [(12, "tag36h11", 15.1, 10.5, "E"),        # grazing: middle cross corridor's west wall
+             # grazing: north corridor's north wall; across, the south wall is solid for 2.85 m
+             # to the west and 7.2 m to the east (58 deg or more off its normal through a gap)
+             (13, "aruco_6x6_100", 7.9, 15.0, "S"),
+             (14, "tag36h11", 0.2, 6.25, "E")]          # corner: south corridor's west end
     return _finish(cv, "office", (1.1, 10.5), math.pi / 2, 12, rng,
-                   ("tag36h11", "tag36h11", "aruco_6x6_100"), walls)
+                   ("tag36h11", "tag36h11", "aruco_6x6_100"), walls, extra=extra)
 
 
 def _desks(cv, x0, y0, x1, y1, door_y, rng):
@@ -466,14 +505,17 @@ def _desks(cv, x0, y0, x1, y1, door_y, rng):
 
 
 def arena(seed=4, n_cyl=16):
-    """One 15 x 15 m room with ``n_cyl`` cylinders (radius 0.15-0.4 m), >= 0.8 m gaps."""
+    """One 15 x 15 m room with ``n_cyl`` cylinders (radius 0.15-0.4 m), >= 0.8 m gaps; 8 tags:
+    6 sampled, an ArUco in the south-west corner and a tag36h11 in the north-east one."""
     rng = np.random.default_rng(seed)
     W, T = 15.4, 0.2
     cv = Canvas(W, W)
     cv.building(W, W, T)
     walls = cv.img != FREE
     scatter_circles(cv, n_cyl, (0.15, 0.4), 0.8, rng, keep=[(W / 2, W / 2)])
-    return _finish(cv, "arena", (W / 2, W / 2), 0.0, 6, rng, support=walls)
+    extra = [(6, "aruco_6x6_100", T, T + 0.25, "E"),          # corner: SW, west wall
+             (7, "tag36h11", W - T - 0.25, W - T, "S")]      # corner: NE, north wall
+    return _finish(cv, "arena", (W / 2, W / 2), 0.0, 6, rng, support=walls, extra=extra)
 
 
 def box_outline(x, y, width, depth, turn=0.0):
@@ -545,7 +587,8 @@ def garden(seed=5):
     """About 12 x 10 m: a rock garden (8 x 10 m) packed with irregular rocks, ellipses and
     turned slabs 0.2-1.1 m across with 0.4-0.8 m gaps about a winding 0.9 m path, and on its
     east side a shed (0.8 m door) and a greenhouse (0.5 m door, rocks with 0.5-0.9 m gaps)
-    joined by a 0.45 m door; 6 tags."""
+    joined by a 0.45 m door; 8 tags: 6 sampled, an ArUco in the shed's north-west corner and
+    a tag36h11 in the garden's."""
     rng = np.random.default_rng(seed)
     W, H, T = 12.0, 10.0, 0.2
     cv = Canvas(W, H)
@@ -568,13 +611,16 @@ def garden(seed=5):
     for sizes in ((0.4, 1.1), (0.2, 0.45)):         # boulders, then stones in the holes they leave
         pack_rocks(cv, rng, (T, T, 8.0, H - T), (0.4, 0.8), sizes, start, keep)
     pack_rocks(cv, rng, (8.1, 5.0, W - T, H - T), (0.5, 0.9), (0.3, 0.7), start, keep, trials=1000)
-    return _finish(cv, "garden", (1.0, 5.0), 0.0, 6, rng, support=walls)
+    extra = [(6, "aruco_6x6_100", 8.35, 4.9, "S"),     # corner: shed NW, north wall
+             (7, "tag36h11", T, H - T - 0.25, "E")]      # corner: garden NW, west wall
+    return _finish(cv, "garden", (1.0, 5.0), 0.0, 6, rng, support=walls, extra=extra)
 
 
 def doors(seed=6):
     """16 x 11 m: a 1.1 m corridor between two rows of rooms from 2 x 2 m closets to 6 x 4.7 m
     halls (four behind other rooms), behind 0.45-0.6 m doors (seven of 0.45 m), furniture,
-    10 tags (every third aruco_6x6_100)."""
+    12 tags: 10 sampled (every third aruco_6x6_100), an ArUco seen at grazing angles from the
+    corridor and a tag36h11 in a room's corner."""
     rng = np.random.default_rng(seed)
     W, H, T = 16.0, 11.0, 0.2
     cv = Canvas(W, H)
@@ -615,7 +661,12 @@ def doors(seed=6):
     for outline in (box_outline(5.0, 1.2, 1.2, 0.6, 0.35), box_outline(12.2, 3.3, 0.5, 0.5, 0.6),  # piano, chair
                     box_outline(9.4, 8.5, 0.8, 0.5, 0.5), box_outline(10.9, 9.6, 0.6, 0.6, 0.8)):  # crates
         cv.polygon(outline)
-    return _finish(cv, "doors", (8.0, 5.55), 0.0, 10, rng, ("tag36h11", "tag36h11", "aruco_6x6_100"), walls)
+    # grazing: the corridor's north wall, between doors; the south wall's doors are 2.0 m
+    # either side (61 deg off its normal through them)
+    extra = [(10, "aruco_6x6_100", 9.25, 6.1, "S"),
+             (11, "tag36h11", 9.9, 4.65, "E")]           # corner: room S's north-west, west wall
+    return _finish(cv, "doors", (8.0, 5.55), 0.0, 10, rng, ("tag36h11", "tag36h11", "aruco_6x6_100"), walls,
+                   extra=extra)
 
 
 def warehouse(rows=1700, cols=1000, seed=0):
