@@ -13,6 +13,7 @@ ENV    := source $(TOP)/tools/env.sh &&
 WORLD    ?= house
 ROBOT    ?= turtlebot3_waffle_pi
 STRATEGY ?= recon
+MISSION  ?= auto
 RTF      ?= 0
 SEED     ?= 0
 BUDGET   ?= 1800
@@ -70,9 +71,9 @@ test: build
 	$(ENV) python -m pytest test -q -p no:cacheprovider
 
 run: build
-	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), headless; output in $(OUTPUT)"
+	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), mission $(MISSION), headless; output in $(OUTPUT)"
 	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
-	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) \
+	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) mission:=$(MISSION) rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) \
 	  rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
 
 wander: build
@@ -89,8 +90,11 @@ bench-sim: build
 bench-map: build
 	$(ENV) python test/benchmarks/bench_map.py
 
+# Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
+# detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).
 bench-tags: build
-	$(ENV) python test/benchmarks/bench_tags.py
+	@$(ENV) python test/benchmarks/bench_tags.py $(if $(QUICK),--quick) $(if $(WORLDS),--worlds $(WORLDS)) \
+	  $(if $(SEEDS),--seeds $(SEEDS)) $(if $(RESUME),--resume)
 
 # The bench's own defaults (all six strategies and the oracle, the shipped, real and held-out
 # worlds, 3 seeds, half the cores, waffle_pi but the burger in the maze, garden and doors,

@@ -194,7 +194,7 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     env.pop("ROS_HOSTNAME", None)
     cmd = [str(TOP / "tools" / "launch"), "--tag", f"{world}/{strategy}/seed{seed}", "--done", "evaluator",
            "--report", str(run_dir / "report.json"), "explore_sim.launch", f"world:={args.world_args[world]}",
-           f"robot:={args.robot_of[world]}", f"strategy:={strategy}", f"seed:={seed}", f"budget:={budget:g}", "rtf:=0",
+           f"robot:={args.robot_of[world]}", f"strategy:={strategy}", f"mission:={args.mission}", f"seed:={seed}", f"budget:={budget:g}", "rtf:=0",
            f"stop_coverage:={stop_coverage(strategy):g}", f"output:={run_dir}", "end_with_evaluator:=false"]
     limit_s = args.startup_s + budget / args.min_rtf
     t0 = time.monotonic()
@@ -230,7 +230,7 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
         status, reason = "ok", ""
     meta = {"status": status, "reason": reason, "returncode": rc, "wall_s": round(wall_s, 1), "port": port,
             "wall_limit_s": round(limit_s, 1), "budget_s": budget, "stop_coverage": stop_coverage(strategy),
-            "jobs": args.jobs, "commit": source_commit(),
+            "jobs": args.jobs, "commit": source_commit(), "mission": args.mission,
             "command": " ".join(cmd)}
     (run_dir / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
     return meta
@@ -321,6 +321,9 @@ def main(argv=None):
     p.add_argument("--name", default="explore",
                    help="the sweep's name: runs and plots in output/bench/NAME/, figures in output/bench/NAME.json "
                         "(default explore; give another for a sweep beside someone else's in the same tree)")
+    p.add_argument("--mission", default="map", choices=("map", "tags"),
+                   help="map: lidar coverage (the exploration figures) | tags: then the tag search "
+                        "with the camera (make bench-tags)")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
     p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
     p.add_argument("--report", action="store_true",

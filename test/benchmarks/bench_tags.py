@@ -8,9 +8,17 @@ frame (``detect_ms_*``: median wall time per frame, the pose, checks and covaria
 Position error: the detector's marker centre against the simulator's (ground truth), over the
 unambiguous detections at <= 2.5 m (``tag_error_median_m``, ``tag_error_max_m``), per table cell
 in ``table``. Targets (issue 16): the faster back-end <= 10 ms; median <= 0.03 m, max <= 0.10 m.
-The mission figures (recall, false tags, search time, rtf with the camera) need the tags
-mission, which is not built yet: they are not in this file.
+
+Then the tag missions (unless --quick): recon with ``mission:=tags`` (the waffle_pi, camera at
+5 Hz, detector and tracker) on house, office, arena and the two real maps, as
+``make bench-explore --mission tags`` runs them (runs in output/bench/tags_missions/): per
+world the recall, false tags, the time the search took after the lidar's frontiers ran out
+(``tag_search_s``) and the run's real-time factor; ``tag_recall_min``, ``false_positives``
+(summed), ``tag_search_s_median`` and ``full_stack_rtf_camera`` (median). Targets: recall
+100 %, 0 false, rtf >= 4x on 2 cores.
 """
+import argparse
+import json
 import math
 import statistics
 import sys
@@ -63,7 +71,54 @@ def frames():
     return out, K
 
 
+MISSION_WORLDS = ("house", "office", "arena", "depot", "tb3_sandbox")
+MISSION_SWEEP = "tags_missions"
+
+
+def missions(worlds: list, seeds: int, resume: bool) -> dict:
+    """Run (or with ``resume`` reuse) the tag missions; their figures."""
+    import bench_explore
+    argv = ["--mission", "tags", "--strategies", "recon", "--worlds", ",".join(worlds), "--seeds", str(seeds),
+            "--jobs", "1", "--name", MISSION_SWEEP] + (["--resume"] if resume else [])
+    bench_explore.main(argv)
+    (bench_explore.BENCH_DIR / f"{MISSION_SWEEP}.json").unlink(missing_ok=True)   # its figures are below
+    out, per = {}, {}
+    for w in worlds:
+        reports = []
+        for n in range(seeds):
+            path = bench_explore.BENCH_DIR / MISSION_SWEEP / w / "recon" / f"seed{n}" / "report.json"
+            if path.exists():
+                reports.append(json.loads(path.read_text()))
+        if not reports:
+            per[w] = "no report"
+            continue
+        def med(key):
+            vals = [r[key] for r in reports if r.get(key) is not None]
+            return statistics.median(vals) if vals else None
+        per[w] = {k: med(k) for k in ("tags_placed", "tags_confirmed", "tag_recall", "false_tags",
+                                      "tag_error_median_m", "tag_error_max_m", "tag_search_s",
+                                      "time_to_99_s", "sim_time_s", "rtf", "coverage_final")}
+    good = [v for v in per.values() if isinstance(v, dict)]
+    def pick(key):
+        return [v[key] for v in good if v.get(key) is not None]
+    out["missions"] = per
+    out["tag_recall_min"] = min(pick("tag_recall")) if pick("tag_recall") else None
+    out["false_positives"] = sum(pick("false_tags")) if pick("false_tags") else None
+    out["tag_search_s_median"] = statistics.median(pick("tag_search_s")) if pick("tag_search_s") else None
+    out["full_stack_rtf_camera"] = statistics.median(pick("rtf")) if pick("rtf") else None
+    out["mission_tag_error_max_m"] = max(pick("tag_error_max_m")) if pick("tag_error_max_m") else None
+    out["mission_worlds"] = list(worlds)
+    out["mission_seeds"] = seeds
+    return out
+
+
 def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="the detection table only (no missions)")
+    ap.add_argument("--worlds", default=",".join(MISSION_WORLDS), help="the missions' worlds")
+    ap.add_argument("--seeds", type=int, default=1, help="missions per world (seeds 0..N-1)")
+    ap.add_argument("--resume", action="store_true", help="reuse missions already finished ok")
+    args = ap.parse_args()
     cv2.setNumThreads(1)
     shots, K = frames()
     figures, table = {}, {}
@@ -93,6 +148,8 @@ def main():
     figures["tag_error_max_m"] = figures["tag_error_max_m_apriltag"]
     figures["frames"] = len(shots)
     figures["table"] = table
+    if not args.quick:
+        figures.update(missions([w.strip() for w in args.worlds.split(",") if w.strip()], args.seeds, args.resume))
     write("tags", figures)
 
 

@@ -12,6 +12,7 @@ from turtlebot_recon.evaluation.oracle import OracleDriverSettings
 from turtlebot_recon.exploration.explorer import ExplorerSettings
 from turtlebot_recon.exploration.frontiers import FrontierSettings
 from turtlebot_recon.exploration.goals import GoalBookSettings
+from turtlebot_recon.exploration.tag_search import TagSearchSettings
 from turtlebot_recon.exploration.strategies import DEFAULT_STRATEGY, STRATEGIES
 from turtlebot_recon.mapping.mapper import MapperSettings
 from turtlebot_recon.perception.detector import DetectorNodeSettings
@@ -45,6 +46,7 @@ BLOCKS = {
     ("explorer.yaml", ()): ExplorerSettings,
     ("explorer.yaml", ("frontiers",)): FrontierSettings,
     ("explorer.yaml", ("goals",)): GoalBookSettings,
+    ("explorer.yaml", ("tag_search",)): TagSearchSettings,
     ("tag_detector.yaml", ()): DetectorNodeSettings,
     ("tag_tracker.yaml", ()): TrackerNodeSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},

@@ -242,7 +242,7 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "coverage_seen_final": pytest.approx(0.9875), "F_marked_occupied": pytest.approx(0.0125),
         "ate_m": pytest.approx(0.035355, abs=1e-6),
         "tags_placed": None, "tags_confirmed": None, "tag_recall": None, "tag_error_median_m": None,
-        "tag_error_max_m": None, "false_tags": None,
+        "tag_error_max_m": None, "false_tags": None, "tag_search_s": None,
         "distance_m": 2.0, "collisions": 1,
         "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
         "distance_to_99_m": 2.0,          # along the kept points until t = 3 s: 1 + 1
@@ -321,3 +321,132 @@ def test_tag_metrics_match_by_marker_set_and_id_and_count_false_tags():
                  "tag_error_median_m": pytest.approx(0.02), "tag_error_max_m": pytest.approx(0.03),
                  "false_tags": 2}
     assert tag_metrics(truth, [])["tag_recall"] == 0.0
+
+
+# ------------------------------------------------------------------ tags on map.png, tag_search_s
+
+TAB_CYAN, TAB_PURPLE, RED = (23, 190, 207), (148, 103, 189), (255, 0, 0)   # estimates, true tags, false tags
+
+
+def spy_on_figures(monkeypatch):
+    """The figures plot_map saves, in order (each saved as usual)."""
+    figures = []
+    real = report_module._save
+
+    def save(fig, path_png):
+        figures.append(fig)
+        return real(fig, path_png)
+    monkeypatch.setattr(report_module, "_save", save)
+    return figures
+
+
+def lines_by_label(fig):
+    (ax,) = fig.axes
+    return {line.get_label(): line for line in ax.get_lines()}
+
+
+def test_plot_map_draws_true_tags_hollow_estimates_filled_and_false_tags_red(tmp_path, monkeypatch):
+    from turtlebot_recon.evaluation.metrics import tag_metrics
+    occ = np.full((64, 84), -1, np.int8)
+    occ[2:62, 2:82] = 0
+    truth = [("tag36h11", 1, 0.5, 2.0, 0.25), ("aruco_6x6_100", 7, 2.0, 0.5, 0.2), ("tag36h11", 3, 2.5, 2.4, 0.25)]
+    est = [("tag36h11", 1, 0.53, 2.0, 0.25),        # 3 cm off: matched
+           ("aruco_6x6_250", 7, 2.0, 0.56, 0.2),    # the same marker set and id: matched
+           ("tag36h11", 3, 1.5, 2.4, 0.25),         # 1 m off (> FALSE_TAG_M): false
+           ("tag36h11", 9, 0.2, 0.2, 0.25)]         # no such true tag: false
+    # The plot's matches are tag_metrics' (2 matched, 2 false).
+    assert report_module.match_tags(truth, est) == [0, 1, None, None]
+    assert tag_metrics(truth, est)["false_tags"] == 2
+    figures = spy_on_figures(monkeypatch)
+    img = rgb(plot_map(tmp_path / "map.png", occ, 0.05, (-1.0, -0.5), tags=est, true_tags=truth))
+    assert img.shape == (806, 1050, 3)
+    lines = lines_by_label(figures[-1])
+    assert set(lines) == {"true tags (3)", "tag error (estimate to true)", "estimated tags (2 matched)",
+                          "false tags (2)"}
+    true_line, estimated, false = lines["true tags (3)"], lines["estimated tags (2 matched)"], lines["false tags (2)"]
+    assert true_line.get_markerfacecolor() == "none" and true_line.get_linestyle() == "None"     # hollow
+    np.testing.assert_allclose(true_line.get_xydata(), [[0.5, 2.0], [2.0, 0.5], [2.5, 2.4]])
+    assert estimated.get_markerfacecolor() not in ("none", None)                                   # filled
+    np.testing.assert_allclose(estimated.get_xydata(), [[0.53, 2.0], [2.0, 0.56]])
+    np.testing.assert_allclose(false.get_xydata(), [[1.5, 2.4], [0.2, 0.2]])
+    assert false.get_markerfacecolor() == "red"
+    # One segment from each matched estimate to its true tag, NaN between them.
+    np.testing.assert_allclose(lines["tag error (estimate to true)"].get_xydata(),
+                               [[0.53, 2.0], [0.5, 2.0], [np.nan, np.nan], [2.0, 0.56], [2.0, 0.5],
+                                [np.nan, np.nan]])
+    legend = figures[-1].axes[0].get_legend()
+    assert legend is not None and {t.get_text() for t in legend.get_texts()} == set(lines)
+    # On the PNG: the true tags' purple, the estimates' cyan and the false tags' red.
+    assert count_colour(img, TAB_PURPLE) > 50 and count_colour(img, TAB_CYAN) > 20 and count_colour(img, RED) > 20
+    # Estimates without the truth are not judged: no true tags, no red, no error lines.
+    plot_map(tmp_path / "est.png", occ, 0.05, (-1.0, -0.5), tags=est)
+    assert set(lines_by_label(figures[-1])) == {"estimated tags (4)"}
+    assert count_colour(rgb(tmp_path / "est.png"), RED) == 0
+    # The truth alone (nothing confirmed): every true tag hollow, nothing else.
+    plot_map(tmp_path / "truth.png", occ, 0.05, (-1.0, -0.5), tags=[], true_tags=truth)
+    assert set(lines_by_label(figures[-1])) == {"true tags (3)"}
+    assert figures[-1].axes[0].get_xlim() == pytest.approx((-1.0, 3.2))        # the map's extent
+    # A tag off the robot's map (here a true one not explored yet) stays in view, 0.4 m from the edge.
+    far = truth + [("tag36h11", 4, 5.0, -1.0, 0.25)]
+    assert rgb(plot_map(tmp_path / "far.png", occ, 0.05, (-1.0, -0.5), tags=est, true_tags=far)).shape == img.shape
+    ax = figures[-1].axes[0]
+    assert ax.get_xlim() == pytest.approx((-1.0, 5.4))
+    assert ax.get_ylim() == pytest.approx((-1.4, 2.8))      # the top: tag 3's y 2.4 + 0.4
+    assert "true tags (4)" in lines_by_label(figures[-1])
+    # No tags at all: no tag artist, no legend, none of the tag colours.
+    bare = rgb(plot_map(tmp_path / "bare.png", occ, 0.05, (-1.0, -0.5)))
+    assert lines_by_label(figures[-1]) == {} and figures[-1].axes[0].get_legend() is None
+    assert count_colour(bare, TAB_CYAN) == count_colour(bare, TAB_PURPLE) == count_colour(bare, RED) == 0
+
+
+def test_write_run_draws_the_worlds_tags_and_the_confirmed_ones(run, tmp_path, monkeypatch):
+    import dataclasses
+
+    from turtlebot_recon.evaluation import evaluator as evaluator_module
+    from turtlebot_recon.sim.world import Tag
+    world, robot, coverage, log, final = run
+    # Two tags on the room's walls (world frame; the map frame is the world less (1, 1.5)).
+    world = dataclasses.replace(world, tags=(
+        Tag(id=4, family="tag36h11", x=4.1, y=1.5, z=0.25, yaw=math.pi, size=0.16),
+        Tag(id=5, family="tag36h11", x=2.0, y=3.1, z=0.25, yaw=-math.pi / 2, size=0.16)))
+    truth = evaluator_module.true_tags(world)
+    assert truth == [("tag36h11", 4, pytest.approx(3.1), pytest.approx(0.0), 0.25),
+                     ("tag36h11", 5, pytest.approx(1.0), pytest.approx(1.6), 0.25)]
+    calls = []
+    real = evaluator_module.plot_map
+
+    def plot_map_spy(*args, **kwargs):
+        calls.append(kwargs)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(evaluator_module, "plot_map", plot_map_spy)
+    est = [("tag36h11", 4, 3.08, 0.01, 0.25), ("tag36h11", 8, 2.0, 1.0, 0.25)]
+    report = run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final, est)
+    assert report["tags_placed"] == 2 and report["false_tags"] == 1
+    write_run(tmp_path / "tags", report, coverage, log, final, tags=est, world=world)
+    assert calls[-1]["tags"] == est and calls[-1]["true_tags"] == truth
+    # No tag tracker (tags None): no tags on the map, the world's neither.
+    write_run(tmp_path / "no_tags", report, coverage, log, final, world=world)
+    assert calls[-1]["tags"] is None and calls[-1]["true_tags"] is None
+    assert sorted(os.listdir(tmp_path / "no_tags")) == sorted(RUN_FILES)
+
+
+def test_tag_search_s_counts_from_the_first_tags_phase(run, tmp_path):
+    world, robot, coverage, log, final = run
+    assert log.phase("map", 10.0) and log.phase("tags", 15.5)
+    assert not log.phase("tags", 18.0)                       # only the first "tags" counts
+    assert log.phases == {"map": 10.0, "tags": 15.5}
+    report = run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final, tags=[])
+    assert report["tag_search_s"] == 4.5                     # end 20 - 15.5
+    data = json.loads(write_report(tmp_path, report)[0].read_text())
+    # An extra key, after the DESIGN keys and the map's two extras.
+    assert data["tag_search_s"] == 4.5
+    assert list(data)[len(DESIGN_KEYS):len(DESIGN_KEYS) + 3] == ["coverage_seen_final", "F_marked_occupied",
+                                                                 "tag_search_s"]
+    assert "| tag_search_s | 4.5 |" in markdown(report)
+    # No tag tracker, or no "tags" phase (an explorer without one): null.
+    assert run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final)[
+        "tag_search_s"] is None
+    log.phases.clear()
+    assert log.phase("map", 10.0)
+    assert run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final, tags=[])[
+        "tag_search_s"] is None

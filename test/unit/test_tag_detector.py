@@ -155,3 +155,26 @@ def test_images_in_and_refused():
         camera_model([0.0] * 9, [], 640, 480, (480, 640))
     with pytest.raises(ImageError, match="640 x 480 but the image is 320 x 240"):
         camera_model([500, 0, 320, 0, 500, 240, 0, 0, 1], [], 640, 480, (240, 320))
+
+
+@pytest.mark.parametrize("border_px", [0.0, 2.0])
+@pytest.mark.parametrize("x0", [0, 3, 6, 9])
+def test_a_marker_at_the_image_edge_is_refused_not_a_crash(x0, border_px):
+    """A marker whose corners lie within a few pixels of the edge (sub-pixel refinement's window
+    would leave the image) is counted as at the edge or read, never an exception."""
+    from turtlebot_recon.perception.families import dictionary
+    marker = cv2.aruco.generateImageMarker(dictionary("tag36h11"), 5, 80, borderBits=1)
+    img = np.full((480, 640), 200, np.uint8)
+    img[200:280, x0:x0 + 80] = marker
+    det = detector(border_px=border_px)
+    found = det.detect(img, np.array([[530.0, 0, 319.5], [0, 530.0, 239.5], [0, 0, 1]]))
+    assert all(d.id == 5 for d in found)
+    assert found or det.rejected.get("at_image_edge", 0) >= 1 or det.rejected == {}
+
+
+def test_corner_refinement_leaves_corners_at_or_past_the_edge_alone():
+    """AprilTag 3 may place a corner of a marker cut by the edge just outside the image (seen in a
+    house run); cv2.cornerSubPix asserts on such a point."""
+    gray = np.full((480, 640), 200, np.uint8)
+    c = np.array([[-0.6, 100.0], [40.0, 100.0], [40.0, 140.0], [639.8, 140.0]])
+    assert np.array_equal(detector()._refine(gray, c), c)

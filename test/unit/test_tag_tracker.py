@@ -1,4 +1,5 @@
 """The tag tracker: map transform, covariance-weighted fusion, gating, confirmation, files."""
+import dataclasses
 import math
 
 import cv2
@@ -374,3 +375,19 @@ def test_csv_has_one_row_per_tag_with_the_header():
     assert [float(row[k]) for k in ("x", "y", "z", "yaw")] == list(t.mean)
     assert float(row["cov_xy"]) == t.covariance[0][1]
     assert float(row["cov_yawyaw"]) == t.covariance[3][3]
+
+
+def test_unconfirmed_lists_tentative_tags_and_glimpses_kept_out_of_the_map():
+    tracker = TagTracker(TrackerSettings())
+    T = camera(1.0, 0.0, 0.0)
+    tracker.update(seen(T, WALL, family="tag36h11", tag_id=3, size=0.16), T, 0.0)
+    amb = dataclasses.replace(seen(T, WALL, family="tag36h11", tag_id=4, size=0.16), ambiguous=True)
+    assert tracker.update(amb, T, 0.1) == "ignored_ambiguous"
+    u = tracker.unconfirmed()
+    assert [(g.family, g.id) for g in u] == [("tag36h11", 3), ("tag36h11", 4)]
+    assert tracker.tags() == []                      # neither is in the map
+    glimpse = u[1]
+    cam = T[:3, 3]
+    assert math.isclose(glimpse.yaw, math.atan2(cam[1] - glimpse.y, cam[0] - glimpse.x), abs_tol=1e-9)
+    tracker.update(seen(T, WALL, family="tag36h11", tag_id=3, size=0.16), T, 0.2)   # confirmed
+    assert [(g.family, g.id) for g in tracker.unconfirmed()] == [("tag36h11", 4)]

@@ -81,6 +81,7 @@ class RunLog:
         self.collisions = 0                    # the simulator's contact count
         self.collisions_at: list = []          # (x m, y m in the map frame, t s on the report's clock)
         self.goals: list = []                  # (x, y) m in the map frame, in the order sent
+        self.phases: dict = {}                 # explore/phase: name -> sim time s (ROS clock) first seen
 
     def start_clock(self, t0_s: float) -> bool:
         """Start the report's clock at sim time ``t0_s`` unless started; whether it started now."""
@@ -120,6 +121,14 @@ class RunLog:
         if not self.goals or math.dist(xy, self.goals[-1]) > 1e-3:
             self.goals.append((float(xy[0]), float(xy[1])))
 
+    def phase(self, name: str, t_s: float) -> bool:
+        """The explorer's phase ``name`` (explore/phase: "map", then "tags") seen at sim time
+        ``t_s``; only its first time is kept. Whether it is new."""
+        if name in self.phases:
+            return False
+        self.phases[name] = float(t_s)
+        return True
+
     def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple) -> None:
         """One ATE sample: the estimated base position (map frame) vs the true one (world), m."""
         true_xy = world_to_map(np.array([true_world_xy], float), self.start)[0]
@@ -136,22 +145,37 @@ class RunLog:
         return np.column_stack([p[:, 0] - (self.t0_s or 0.0), world_to_map(p[:, 1:], self.start)])
 
 
+def true_tags(world: World) -> list:
+    """The world's tags as (family, id, x, y, z) in the map frame (x, y: ``world_to_map``)."""
+    xy = world_to_map(np.array([[t.x, t.y] for t in world.tags], float).reshape(-1, 2), world.start)
+    return [(t.family, t.id, float(x), float(y), t.z) for t, (x, y) in zip(world.tags, xy)]
+
+
 def tag_report(world: World, tags: Optional[list]) -> dict:
     """The tag keys: null without a tag tracker, else ``tag_metrics`` against the world's tags
     (brought into the map frame)."""
     if tags is None:
         return dict.fromkeys(("tags_placed", "tags_confirmed", "tag_recall", "tag_error_median_m",
                               "tag_error_max_m", "false_tags"))
-    xy = world_to_map(np.array([[t.x, t.y] for t in world.tags], float).reshape(-1, 2), world.start)
-    truth = [(t.family, t.id, x, y, t.z) for t, (x, y) in zip(world.tags, xy)]
-    return tag_metrics(truth, tags)
+    return tag_metrics(true_tags(world), tags)
+
+
+def tag_search_s(log: RunLog, end_s: float, tags: Optional[list]) -> Optional[float]:
+    """Sim s from the explorer's "tags" phase (its first explore/phase "tags": lidar exploration
+    over, the search for tags begun) to ``end_s``; None without a tag tracker or that phase."""
+    t = log.phases.get("tags")
+    if tags is None or t is None:
+        return None
+    return round(max(end_s - t, 0.0), 2)
 
 
 def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, coverage: CoverageTracker,
                log: RunLog, end_s: float, wall_time_s: float, reason: str, strategy: Optional[str],
                final_map: Optional[FinalMap] = None, tags: Optional[list] = None) -> dict:
     """report.json's content: DESIGN §6 keys, then extras. ``tags``: the confirmed tags at the
-    end, (family, id, x, y, z) in the map frame; None when no tag tracker ran (tag keys null).
+    end, (family, id, x, y, z) in the map frame; None when no tag tracker ran (tag keys null,
+    and the extra ``tag_search_s``: sim s from the explorer's "tags" phase to the end, null too
+    without that phase).
     ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
     ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
     ValueError if the clock never started (the node starts it at the latest when finishing)."""
@@ -170,6 +194,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
     report.update({
         "ate_m": log.ate_m(),
         **tag_report(world, tags),
+        "tag_search_s": tag_search_s(log, end_s, tags),   # extra key (after the DESIGN ones in report.json)
         "distance_m": round(log.distance_m, 3), "collisions": log.collisions,
         "sim_time_s": round(sim_s, 2), "wall_time_s": round(wall_time_s, 2),
         "rtf": round(sim_s / wall_time_s, 2) if wall_time_s > 0 else None, "finished_reason": reason,
@@ -190,10 +215,14 @@ def title(report: dict) -> str:
 
 
 def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log: RunLog,
-              final_map: Optional[FinalMap] = None) -> Path:
+              final_map: Optional[FinalMap] = None, tags: Optional[list] = None,
+              world: Optional[World] = None) -> Path:
     """Write the run directory ``out_dir``: coverage.csv (sim_time_s, coverage), path.csv
     (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), coverage.png (if sampled), map.png (with a
     final map), report.md and, last and atomically, report.json; return report.json's path.
+    ``tags``: the confirmed tags as run_report's (None: no tag tracker, no tags on map.png);
+    with them and ``world``, map.png shows the world's tags too, each estimate joined to its
+    true tag or marked false (``report.plot_map``).
     A report.json left by an earlier run is removed first, so the directory never pairs an old
     report with new files. OSError if a file cannot be written (then there is no report.json)."""
     out = Path(out_dir)
@@ -208,8 +237,10 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
     if t.size:
         plot_coverage(out / "coverage.png", coverage, title=title(report))
     if final_map is not None:
+        truth = true_tags(world) if tags is not None and world is not None else None
         plot_map(out / "map.png", final_map.occupancy, final_map.resolution, final_map.origin,
-                 path_xy=path[:, 1:], goals_xy=list(log.goals), title=title(report))
+                 path_xy=path[:, 1:], goals_xy=list(log.goals), tags=tags, true_tags=truth,
+                 title=title(report))
     json_path, _ = write_report(out, report)
     return json_path
 

@@ -203,20 +203,111 @@ def map_image(occupancy: np.ndarray) -> np.ndarray:
 
 
 def _tag_fields(tag) -> tuple:
-    """(id, x, y) of a tag given as a mapping, an object with id/x/y or an (id, x, y) tuple."""
+    """(family, id, x, y, z) of a tag given as a mapping or an object with family/id/x/y/z
+    (family and z optional), or a tuple: (family, id, x, y, z), (family, id, x, y) or
+    (id, x, y). A missing family or z is None."""
     if isinstance(tag, dict):
-        return tag.get("id"), float(tag["x"]), float(tag["y"])
+        z = tag.get("z")
+        return (tag.get("family"), tag.get("id"), float(tag["x"]), float(tag["y"]),
+                None if z is None else float(z))
     if hasattr(tag, "x"):
-        return getattr(tag, "id", None), float(tag.x), float(tag.y)
-    return tag[0], float(tag[1]), float(tag[2])
+        z = getattr(tag, "z", None)
+        return (getattr(tag, "family", None), getattr(tag, "id", None), float(tag.x), float(tag.y),
+                None if z is None else float(z))
+    if len(tag) == 3:
+        return None, tag[0], float(tag[1]), float(tag[2]), None
+    z = tag[4] if len(tag) > 4 else None
+    return tag[0], tag[1], float(tag[2]), float(tag[3]), None if z is None else float(z)
+
+
+def _tag_key(family, tag_id) -> tuple:
+    """What an estimate and a true tag are matched by: marker set and id (the family's marker
+    set, as tag_metrics compares them; None without a family)."""
+    if family is None:
+        return None, tag_id
+    from ..perception.families import marker_set
+    return marker_set(family), int(tag_id)
+
+
+def match_tags(true_tags, estimated) -> list:
+    """For each estimate (in order) the index in ``true_tags`` of the true tag it matches, or
+    None for a false tag: the true tag of its marker set and id, if within metrics.FALSE_TAG_M
+    (3-D where both have a z, else in x-y), as ``tag_metrics`` counts them. Tags as plot_map
+    takes them; a tag without a family matches only one without."""
+    from .metrics import FALSE_TAG_M
+    truth = [_tag_fields(t) for t in true_tags]
+    index = {_tag_key(f, i): k for k, (f, i, *_) in enumerate(truth)}   # the last one, as tag_metrics
+    out = []
+    for f, i, x, y, z in (_tag_fields(t) for t in estimated):
+        k = index.get(_tag_key(f, i))
+        if k is not None:
+            _, _, tx, ty, tz = truth[k]
+            dz = 0.0 if z is None or tz is None else z - tz
+            if math.sqrt((x - tx) ** 2 + (y - ty) ** 2 + dz ** 2) > FALSE_TAG_M:
+                k = None
+        out.append(k)
+    return out
+
+
+# plot_map's tags: true tags hollow, estimates filled, false tags red; the legend's labels
+# (each followed by its count, but the error lines'); how far the axes reach beyond a tag that
+# lies off the robot's map (m).
+TRUE_TAG_COLOUR, ESTIMATE_COLOUR, FALSE_TAG_COLOUR = "tab:purple", "tab:cyan", "red"
+TAG_LABELS = {"true": "true tags", "estimated": "estimated tags", "error": "tag error (estimate to true)",
+              "false": "false tags"}
+TAG_MARGIN_M = 0.4
+
+
+def _annotate(ax, fields, colour, offset) -> None:
+    for _, tag_id, x, y, _ in fields:
+        ax.annotate(f"tag {tag_id}", (x, y), xytext=offset, textcoords="offset points", fontsize=7,
+                    color=colour)
+
+
+def _plot_tags(ax, tags, true_tags) -> None:
+    """Tags on plot_map's axes: the true tags as hollow diamonds with their ids, the estimates
+    as filled circles, each joined by a thin line to the true tag it matches; with ``true_tags``
+    given (even empty), an estimate that matches none (a false tag) is a red cross with its id;
+    without, the estimates are not judged and carry their ids."""
+    est = [_tag_fields(t) for t in tags or ()]
+    if true_tags is None:
+        match = None
+    else:
+        truth = [_tag_fields(t) for t in true_tags]
+        match = match_tags(true_tags, tags or ())
+        if truth:
+            ax.plot([t[2] for t in truth], [t[3] for t in truth], marker="D", ms=9, mfc="none",
+                    mec=TRUE_TAG_COLOUR, mew=1.6, ls="", zorder=4,
+                    label=f"{TAG_LABELS['true']} ({len(truth)})")
+            _annotate(ax, truth, TRUE_TAG_COLOUR, (5, -10))
+        pairs = [(e, truth[k]) for e, k in zip(est, match) if k is not None]
+        if pairs:   # one artist, the segments separated by NaN
+            seg = np.array([[e[2:4], t[2:4], (np.nan, np.nan)] for e, t in pairs], float).reshape(-1, 2)
+            ax.plot(seg[:, 0], seg[:, 1], color=ESTIMATE_COLOUR, lw=0.8, zorder=5, label=TAG_LABELS["error"])
+    good = est if match is None else [e for e, k in zip(est, match) if k is not None]
+    false = [] if match is None else [e for e, k in zip(est, match) if k is None]
+    if good:
+        ax.plot([e[2] for e in good], [e[3] for e in good], marker="o", ms=5, color=ESTIMATE_COLOUR,
+                mec="black", mew=0.5, ls="", zorder=6,
+                label=f"{TAG_LABELS['estimated']} ({len(good)}{'' if match is None else ' matched'})")
+        if match is None:
+            _annotate(ax, good, ESTIMATE_COLOUR, (4, -9))
+    if false:
+        ax.plot([e[2] for e in false], [e[3] for e in false], marker="X", ms=8, color=FALSE_TAG_COLOUR,
+                mec="black", mew=0.5, ls="", zorder=6, label=f"{TAG_LABELS['false']} ({len(false)})")
+        _annotate(ax, false, FALSE_TAG_COLOUR, (5, 4))
 
 
 def plot_map(path_png: str | Path, occupancy: np.ndarray, resolution: float, origin_xy: tuple,
-             path_xy=None, goals_xy=None, tags=None, title: str = "") -> Path:
+             path_xy=None, goals_xy=None, tags=None, title: str = "", true_tags=None) -> Path:
     """The robot's map (free white, occupied black, unknown grey; row 0 at ``origin_xy``) with
-    the driven path (line, start and end marked), the visited goals (numbered markers) and tags
-    (id, x, y) drawn on it. Everything in the map frame, axes in metres, equal aspect. PNG of
-    ``map_figure_size_px(occupancy.shape)``."""
+    the driven path (line, start and end marked), the visited goals (numbered markers) and the
+    tags drawn on it. ``tags``: the estimated (confirmed) tags, filled circles; ``true_tags``:
+    the world's tags, hollow diamonds; with both, each estimate is joined to the true tag it
+    matches (``match_tags``: marker set, id and within metrics.FALSE_TAG_M) and the false ones
+    are red crosses. Tags as ``_tag_fields`` reads them, e.g. (family, id, x, y, z) or (id, x, y);
+    the axes grow to show those off the map (unknown grey there). Everything in the map frame,
+    axes in metres, equal aspect. PNG of ``map_figure_size_px(occupancy.shape)``."""
     rows, cols = occupancy.shape
     x0, y0 = float(origin_xy[0]), float(origin_xy[1])
     extent = (x0, x0 + cols * resolution, y0, y0 + rows * resolution)
@@ -235,13 +326,14 @@ def plot_map(path_png: str | Path, occupancy: np.ndarray, resolution: float, ori
         for k, (gx, gy) in enumerate(g, 1):
             ax.annotate(str(k), (gx, gy), xytext=(3, 3), textcoords="offset points",
                         fontsize=7, color="tab:orange")
-    if tags:
-        fields = [_tag_fields(t) for t in tags]
-        ax.plot([f[1] for f in fields], [f[2] for f in fields], marker="D", color="tab:purple",
-                ms=6, ls="", label="tags")
-        for tag_id, tx, ty in fields:
-            ax.annotate(f"tag {tag_id}", (tx, ty), xytext=(4, -9), textcoords="offset points",
-                        fontsize=7, color="tab:purple")
+    if tags or true_tags is not None:
+        _plot_tags(ax, tags, true_tags)
+        # Tags off the robot's map (not explored yet, or false) stay in view, on unknown grey.
+        xy = [_tag_fields(t)[2:4] for t in [*(tags or ()), *(true_tags or ())]]
+        if xy:
+            (lo_x, lo_y), (hi_x, hi_y) = np.min(xy, axis=0) - TAG_MARGIN_M, np.max(xy, axis=0) + TAG_MARGIN_M
+            extent = (min(extent[0], lo_x), max(extent[1], hi_x), min(extent[2], lo_y), max(extent[3], hi_y))
+            ax.set_facecolor((0.62, 0.62, 0.62))
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     ax.set_aspect("equal")

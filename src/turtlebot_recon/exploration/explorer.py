@@ -29,6 +29,12 @@ which the robot stood through at every arrival (160 s of the depot's 880 s to 99
 ``start`` builds the supervisor (SPIN, then EXPLORE) once the node has the first map, the
 pose and the navigator.
 
+Mission ``tags`` (``tag_search``, exploration/tag_search.py): once no frontier goal is left,
+the cycle asks the tag search for a view (an unconfirmed tag, else the wall the camera has
+seen least per metre of path) and sends it with its heading; the supervisor's finish rule
+counts a cycle without frontier and view as empty. ``ExploreInputs.camera_poses`` (each
+camera frame's pose since the last tick) feed the camera's coverage map.
+
 An abort of a goal that the explorer's own field still reaches says, in practice, that the
 robot is wedged (the navigator reports "blocked" wherever it stands), not that the goal is
 bad: the goal is re-sent (up to ``abort_retries`` times in a row) instead of failed, so the
@@ -64,10 +70,14 @@ from ..robot import RobotSpec
 from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
 from .strategies import Context
+from .tag_search import TagSearch, TagSighting, View
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
 INFO, WARNING = logging.INFO, logging.WARNING
 BODY_CHECK_STEP_S = 0.05                           # a recovery twist's poses checked this often
+MISSIONS = ("map", "tags", "auto")
+SEARCH_AFTER_CYCLES = 2      # mission tags: the tag search starts after this many cycles in a row
+                             # without a frontier goal (one can be a map between two scans)
 
 
 @dataclass(frozen=True)
@@ -91,6 +101,8 @@ class ExplorerSettings:
                                          # with the body against the map; unsafe: not driven
     status_period_wall_s: float = 5.0    # terminal progress line (wall time: readable at any rtf)
     shutdown_when_done: bool = False     # end the node once the supervisor says DONE
+    mission: str = "map"                 # map: lidar coverage | tags: then the tag search |
+                                         # auto: tags for a robot with a camera
 
     def validate(self, src: str) -> None:
         positive(src, self, "cycle_period_s", "supervisor_rate_hz", "same_goal_m", "scan_max_age_s",
@@ -99,6 +111,14 @@ class ExplorerSettings:
         require(isinstance(self.abort_retries, int) and self.abort_retries >= 0, src, "abort_retries",
                 "must be an integer >= 0")
         require(self.scan_margin_m >= 0, src, "scan_margin_m", "must be >= 0")
+        require(self.mission in MISSIONS, src, "mission", f"must be one of {MISSIONS}, got {self.mission!r}")
+
+
+def resolve_mission(mission: str, robot: RobotSpec) -> str:
+    """``auto``: ``tags`` for a robot with a camera, ``map`` without one."""
+    if mission == "auto":
+        return "tags" if robot.camera is not None else "map"
+    return mission
 
 
 # ------------------------------------------------------------------------------ inputs
@@ -130,6 +150,9 @@ class ExploreInputs:
     grid: Optional[Grid]                  # the latest map; None: none usable (a cycle is skipped)
     visits: Optional[Grid] = None         # the latest visit counts (used with use_visits)
     nav_events: Tuple[NavEvent, ...] = () # navigator results since the last tick, in order
+    camera_poses: Tuple[tuple, ...] = ()  # camera frames since the last tick: (x, y, yaw) of the
+                                          # camera in the map frame (mission tags)
+    unconfirmed: Tuple = ()               # markers seen, not confirmed (perception.tracker.Glimpse)
 
 
 @dataclass(frozen=True)
@@ -191,6 +214,8 @@ class Outputs:
     frontiers: Optional[FrontierView] = None
     state: Optional[str] = None           # the supervisor's new state, when it changed
     done: Optional[str] = None            # exploration ended this tick, with this reason
+    phase: Optional[str] = None           # "map", then "tags" when the tag search begins
+    camera_coverage: Optional[Grid] = None  # the camera's coverage map (a cycle of mission tags)
 
 
 @dataclass
@@ -211,7 +236,8 @@ class Explorer:
 
     def __init__(self, settings: ExplorerSettings, frontier_settings: FrontierSettings, strategy,
                  book: GoalBook, supervisor_settings: SupervisorSettings, robot: RobotSpec,
-                 log: Optional[Log] = None, lattice: Optional[LatticeSettings] = None):
+                 log: Optional[Log] = None, lattice: Optional[LatticeSettings] = None,
+                 tag_search: Optional[TagSearch] = None):
         self.s, self.fs, self.strategy, self.book = settings, frontier_settings, strategy, book
         self.sup_settings = supervisor_settings
         self.supervisor: Optional[Supervisor] = None        # built by start()
@@ -237,6 +263,13 @@ class Explorer:
         self._out = Outputs()
         self._log = log or logging.getLogger(__name__).log
         self._throttled: Dict[str, float] = {}
+        self.mission = resolve_mission(settings.mission, robot)
+        if self.mission == "tags" and tag_search is None:
+            raise ValueError("mission 'tags' needs a tag search (a robot with a camera)")
+        self.search = tag_search if self.mission == "tags" else None
+        self.phase = "map"
+        self.view: Optional[View] = None                    # the tag search's view pursued
+        self._no_frontier = 0                               # cycles in a row without a frontier goal
 
     @property
     def started(self) -> bool:
@@ -245,8 +278,9 @@ class Explorer:
     def start(self, now_s: float, pose: tuple) -> None:
         """Start the supervisor (SPIN first) at ``pose``, its home."""
         self.supervisor = Supervisor(self.sup_settings, pose)
-        self._log(INFO, "explorer: started at t=%.1f s sim from (%.2f, %.2f, %.2f) in %s", now_s, *pose,
-                  self.s.map_frame)
+        self._log(INFO, "explorer: started at t=%.1f s sim from (%.2f, %.2f, %.2f) in %s, mission %s",
+                  now_s, *pose, self.s.map_frame, self.mission)
+        self._out.phase = self.phase
 
     # ------------------------------------------------------------------------ ticking
     def explore(self, inp: ExploreInputs) -> Outputs:
@@ -258,6 +292,10 @@ class Explorer:
             return out                                    # DONE is final: nothing left to do
         self._nav_results(inp.now_s, inp.pose, inp.nav_events)
         self._nav_before_cycle = self.nav
+        if self.search is not None and inp.grid is not None:
+            g = inp.grid
+            for camera_pose in inp.camera_poses:
+                self.search.saw(g.data, g.resolution, g.origin, camera_pose)
         arrived, self._arrived = self._arrived, None
         if arrived is not None and self._carry_on(arrived, inp.pose):
             return out                                    # the cycle follows at the next tick
@@ -265,7 +303,7 @@ class Explorer:
             self.cycle_now, self.next_cycle_s = False, inp.now_s + self.s.cycle_period_s
             out.cycled = True
             if inp.grid is not None:
-                self._cycle(inp.now_s, inp.pose, inp.grid, inp.visits)
+                self._cycle(inp.now_s, inp.pose, inp.grid, inp.visits, inp.unconfirmed)
         return out
 
     def supervise(self, inp: SuperviseInputs) -> Outputs:
@@ -309,6 +347,12 @@ class Explorer:
             if failed and self._retry(sent, now, pose, event.text):
                 continue
             if sent.kind != "explore" or self.mode != "explore":
+                continue
+            if event.status == "succeeded" and self.view is not None and sent.xy == self.view.xy:
+                self.search.reached(self.view)
+                self._log(INFO, "explorer: tag search: view (%.2f, %.2f) reached", *sent.xy)
+                self.view = None
+                self.cycle_now = True
                 continue
             if event.status == "succeeded":
                 expired = self.book.succeeded(sent.xy, now)
@@ -360,7 +404,8 @@ class Explorer:
         return True
 
     # ------------------------------------------------------------------ explorer cycle
-    def _cycle(self, now: float, pose: tuple, grid: Grid, visits: Optional[Grid]) -> None:
+    def _cycle(self, now: float, pose: tuple, grid: Grid, visits: Optional[Grid],
+               unconfirmed: Sequence = ()) -> None:
         occ, res, origin = grid.data, grid.resolution, grid.origin
         # where the navigator can take the robot: its lattice, from the robot's pose (a cell
         # where some heading fits may still be out of reach: a slot the box cannot turn into)
@@ -380,7 +425,12 @@ class Explorer:
         self._check_active_goal(ctx, frontiers, now)
         self.choice = self.strategy.choose(frontiers, ctx, self.book)
         self.cycles += 1
-        self.goal_available = self.choice is not None      # the supervisor's finish rule
+        self._no_frontier = 0 if self.choice is not None else self._no_frontier + 1
+        view = None
+        if self.search is not None and self._no_frontier >= SEARCH_AFTER_CYCLES \
+                and self.supervisor is not None and self.supervisor.state != "SPIN":
+            view = self._tag_view(ctx, unconfirmed, now)
+        self.goal_available = self.choice is not None or view is not None  # the supervisor's finish rule
         if not frontiers:
             self._log_throttled(10.0, now, INFO, "explorer: no frontier in the map (%d known cells)",
                                 int((occ >= 0).sum()))
@@ -389,10 +439,45 @@ class Explorer:
                                 "viewpoint, none usable (blacklisted or too close to obstacles)",
                                 len(frontiers), sum(f.reachable for f in frontiers))
         if self.mode == "explore":
-            self._pursue(ctx, pose)
+            if view is not None:
+                self._look(view, pose)
+            else:
+                self.view = None
+                self._pursue(ctx, pose)
         active = self.book.active
         self._out.frontiers = FrontierView(frontiers, res, origin, active.goal if active else None,
                                            getattr(self.strategy, "last_tour", []), pose[:2], now)
+
+    def _tag_view(self, ctx: Context, unconfirmed: Sequence, now: float) -> Optional[View]:
+        """The tag search's next view (mission tags, no frontier goal left); its coverage map
+        goes out with this cycle."""
+        if self.phase != "tags":
+            self.phase = self._out.phase = "tags"
+            self._log(INFO, "explorer: no frontier goal left at t=%.1f s: tag search begins", now)
+        sightings = [TagSighting(g.family, g.id, g.x, g.y, g.yaw) for g in unconfirmed]
+        pursued = self.view if self.nav == "active" else None
+        view = self.search.choose(ctx, sightings, self.book.is_blacklisted, pursued)
+        search = self.search
+        if search.coverage.seen is not None and search.coverage.seen.shape == ctx.occupancy.shape:
+            self._out.camera_coverage = Grid(search.coverage.to_occupancy_grid_data(search.free_region(ctx)),
+                                             ctx.resolution, ctx.origin)
+        if view is None:
+            self._log_throttled(10.0, now, INFO, "explorer: tag search: nothing left to look at (%.1f %% "
+                                "of the walls seen, %d unconfirmed tags)", 100.0 * (search.seen_share or 0.0),
+                                len(sightings))
+        return view
+
+    def _look(self, view: View, pose: tuple) -> None:
+        """Drive to a tag search view unless it is the one pursued."""
+        sent, old = self.sent, self.view
+        if (old is not None and sent is not None and self.nav == "active" and sent.xy == old.xy
+                and math.dist(view.xy, old.xy) <= self.s.same_goal_m):
+            return
+        self.book.active = None
+        self.view = view
+        self._log(INFO, "explorer: tag search: view (%.2f, %.2f) facing %.0f deg: %s (walls seen %.1f %%)",
+                  *view.xy, math.degrees(view.yaw), view.label, 100.0 * (self.search.seen_share or 0.0))
+        self._send("explore", view.xy, view.yaw, pose)
 
     def _visits(self, shape: tuple, origin: tuple, v: Optional[Grid]) -> Optional[np.ndarray]:
         if not self.s.use_visits or v is None:

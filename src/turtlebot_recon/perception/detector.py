@@ -213,16 +213,16 @@ class TagDetector:
         out = []
         for f in self.backend.find(gray):
             c = f.corners
+            b = self.s.border_px
+            if (c[:, 0] < b).any() or (c[:, 1] < b).any() or (c[:, 0] > w - 1 - b).any() \
+                    or (c[:, 1] > h - 1 - b).any():
+                self._count("at_image_edge")
+                continue
             if self.s.refine_corners:
                 c = self._refine(gray, c)
             side = float(np.min(np.linalg.norm(c - np.roll(c, -1, axis=0), axis=1)))
             if side < self.s.min_side_px:
                 self._count("too_small")
-                continue
-            b = self.s.border_px
-            if (c[:, 0] < b).any() or (c[:, 1] < b).any() or (c[:, 0] > w - 1 - b).any() \
-                    or (c[:, 1] > h - 1 - b).any():
-                self._count("at_image_edge")
                 continue
             det = self._pose(f, c, K, D)
             if det is not None:
@@ -232,7 +232,11 @@ class TagDetector:
 
     def _refine(self, gray: np.ndarray, c: np.ndarray) -> np.ndarray:
         side = float(np.min(np.linalg.norm(c - np.roll(c, -1, axis=0), axis=1)))
-        win = int(max(1, min(5, side / 8)))
+        h, w = gray.shape
+        room = float(np.min([c[:, 0], c[:, 1], w - 1 - c[:, 0], h - 1 - c[:, 1]]))
+        win = int(min(5, side / 8, room - 2))     # the search window stays inside the image
+        if win < 1:
+            return c
         pts = c.astype(np.float32).reshape(-1, 1, 2).copy()
         crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 20, 0.01)
         cv2.cornerSubPix(gray, pts, (win, win), (-1, -1), crit)

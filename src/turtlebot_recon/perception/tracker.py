@@ -188,12 +188,25 @@ class _Tag:
                         self.rejected, self.first_seen_s, self.last_seen_s, self.state)
 
 
+@dataclass(frozen=True)
+class Glimpse:
+    """A marker seen but not confirmed: (x, y) m in the map and the yaw (rad) of the side to
+    look at it from (its normal, or towards the camera that saw it)."""
+    family: str
+    id: int
+    x: float
+    y: float
+    yaw: float
+    stamp_s: float
+
+
 class TagTracker:
     """Map estimates of markers from their detections (module docstring)."""
 
     def __init__(self, settings: TrackerSettings):
         self.settings = settings
         self._tags: Dict[Tuple[str, int], _Tag] = {}
+        self._glimpses: Dict[Tuple[str, int], Glimpse] = {}
         self.stats = {key: 0 for key in ("sightings", "fused", "new", "confirmed", "restarted",
                                          "rejected_outlier", "ignored_ambiguous", "ignored_far",
                                          "ignored_tilted", "ignored_size")}
@@ -205,10 +218,9 @@ class TagTracker:
         _check_inputs(detection, T, stamp_s)
         s = self.settings
         self.stats["sightings"] += 1
-        if detection.ambiguous:
-            return self._count("ignored_ambiguous")
-        if detection.distance_m > s.max_distance_m:
-            return self._count("ignored_far")
+        if detection.ambiguous or detection.distance_m > s.max_distance_m:
+            self._glimpse(detection, T, stamp_s)
+            return self._count("ignored_ambiguous" if detection.ambiguous else "ignored_far")
         z, R, tilt = sighting_in_map(detection, T)
         if tilt > s.max_tilt_rad:
             return self._count("ignored_tilted")
@@ -223,6 +235,27 @@ class TagTracker:
         if not math.isclose(detection.size_m, tag.size_m, rel_tol=1e-6):
             return self._count("ignored_size")     # another marker, or a misconfigured detector
         return self._sighting(tag, z, R, stamp_s)
+
+    def _glimpse(self, detection: TagDetection, T: np.ndarray, stamp_s: float) -> None:
+        """Remember where a marker kept out of the map (ambiguous or far) was seen, and from
+        which side: the position is good even when the orientation is not."""
+        p = T[:3, :3] @ detection.position_m + T[:3, 3]
+        toward = T[:3, 3] - p                       # from the marker to the camera
+        self._glimpses[(marker_set(detection.family), int(detection.id))] = Glimpse(
+            canonical(detection.family), int(detection.id), float(p[0]), float(p[1]),
+            math.atan2(toward[1], toward[0]), stamp_s)
+
+    def unconfirmed(self) -> List["Glimpse"]:
+        """Markers seen but not confirmed, for a closer look: tentative tracks (at their
+        estimate, facing along their normal) and markers only glimpsed (ambiguous or far: at
+        the glimpse, facing the camera that saw them), sorted by (family, id)."""
+        out = {k: Glimpse(t.family, t.id, float(t.mean[0]), float(t.mean[1]), float(t.mean[3]),
+                          t.last_seen_s)
+               for k, t in self._tags.items() if t.state != CONFIRMED}
+        for k, g in self._glimpses.items():
+            if k not in self._tags:
+                out[k] = g
+        return sorted(out.values(), key=lambda g: (g.family, g.id))
 
     def tags(self, confirmed_only: bool = True) -> List[TagTrack]:
         """The tags' records, sorted by (family, id)."""

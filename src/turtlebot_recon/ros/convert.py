@@ -25,6 +25,13 @@ def quaternion_to_yaw(q) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
+def z_axis_yaw(q) -> float:
+    """Heading (rad) of a frame's z axis in its parent, the frame given by quaternion ``q``: a
+    camera optical frame's line of sight, a marker's outward normal (REP-103 optical / tag
+    frames, whose z is not vertical)."""
+    return math.atan2(2.0 * (q.y * q.z - q.w * q.x), 2.0 * (q.x * q.z + q.w * q.y))
+
+
 def transform(parent: str, child: str, t_s: float, x: float, y: float, z: float = 0.0,
               yaw: float = 0.0, quat=None) -> TransformStamped:
     m = TransformStamped()
