@@ -73,13 +73,19 @@ def frames():
 
 MISSION_WORLDS = ("house", "office", "arena", "depot", "tb3_sandbox")
 MISSION_SWEEP = "tags_missions"
+MISSION_BUDGET_FACTOR = 2.0
 
 
 def missions(worlds: list, seeds: int, resume: bool) -> dict:
     """Run (or with ``resume`` reuse) the tag missions; their figures."""
     import bench_explore
+    # the exploration benchmark's budgets (per world) times MISSION_BUDGET_FACTOR: the search
+    # after the lidar's frontiers must not be cut by a budget set for the lidar alone
+    plain = bench_explore.budgets_for({w: bench_explore.world_arg(w) for w in worlds},
+                                      argparse.Namespace(budgets="", budget=0.0))
+    budgets = ",".join(f"{w}={MISSION_BUDGET_FACTOR * b:g}" for w, b in plain.items())
     argv = ["--mission", "tags", "--strategies", "recon", "--worlds", ",".join(worlds), "--seeds", str(seeds),
-            "--jobs", "1", "--name", MISSION_SWEEP] + (["--resume"] if resume else [])
+            "--jobs", "1", "--name", MISSION_SWEEP, "--budgets", budgets] + (["--resume"] if resume else [])
     bench_explore.main(argv)
     (bench_explore.BENCH_DIR / f"{MISSION_SWEEP}.json").unlink(missing_ok=True)   # its figures are below
     out, per = {}, {}
