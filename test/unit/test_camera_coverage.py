@@ -285,13 +285,14 @@ def test_matches_the_python_reference_on_random_maps(seed):
 # ------------------------------------------------------------------------- CameraCoverage
 
 def make_coverage(**settings):
+    settings.setdefault("tag_size_m", 0.16)        # the tests' geometry was laid out for 4.2 m
     return CameraCoverage(fx_px=530.0, hfov_rad=60 * DEG, settings=CoverageSettings(**settings))
 
 
 def test_max_range_is_where_a_tag_shrinks_to_min_tag_px():
     cov = CameraCoverage.for_camera(CameraSpec())               # waffle_pi: 640 px, 62.2 deg
-    # fx = 320 / tan 31.1 deg = 530.5 px; 0.16 m * 530.5 px / 20 px = 4.244 m.
-    assert cov.max_range_m == pytest.approx(4.244, abs=1e-3)
+    # fx = 320 / tan 31.1 deg = 530.5 px; the default 0.10 m * 530.5 px / 20 px = 2.652 m.
+    assert cov.max_range_m == pytest.approx(2.652, abs=1e-3)
     assert make_coverage(min_tag_px=40.0).max_range_m == pytest.approx(0.16 * 530 / 40)
 
 

@@ -44,7 +44,7 @@ class CoverageSettings:
     max_incidence_rad: float = math.radians(60.0)  # rad, most oblique view of a wall that counts
                                                    # (between the line of sight and the normal)
     min_tag_px: float = 20.0        # px, smallest tag side in the image the detector reads reliably
-    tag_size_m: float = 0.16        # m, side of the tags' black square
+    tag_size_m: float = 0.10        # m, side of the smallest tags' black square (the ArUco's)
     occupied_threshold: int = 65    # occupancy (0..100) >= this is a wall (map_server's 0.65)
     rays: int = 0                   # rays over the field of view; 0: enough to leave no gaps
                                     # on walls within range and incidence (camera_coverage.hpp)
