@@ -100,3 +100,21 @@ def test_no_free_cell_is_a_clear_error(tmp_path):
 def test_missing_world_file_lists_shipped_worlds(tmp_path):
     with pytest.raises(WorldError, match="not found"):
         load_world(tmp_path / "nope.yaml")
+
+
+def test_a_tag_at_an_angle_to_the_pixel_walls_is_moved_clear_of_them(tmp_path):
+    """A real map's wall runs at an angle to the pixel grid the walls are drawn from: a marker
+    placed along it would sink into the pixel boxes at one side (the camera then sees half of
+    it). The loader moves it along its normal until all of it is in front; a marker on a
+    straight face stays where it is."""
+    from turtlebot_recon.sim import load_world
+    from turtlebot_recon.sim.markers import full_scale
+    tags = [{"id": 1, "family": "tag36h11", "x": 4.1, "y": 1.5, "z": 0.2, "yaw": math.pi, "size": 0.16},
+            {"id": 2, "family": "tag36h11", "x": 4.1, "y": 2.5, "z": 0.2, "yaw": math.pi - 0.12, "size": 0.16}]
+    w = load_world(write_world(tmp_path, "slant", room(4.0, 3.0), start=[1.0, 1.5, 0.0], tags=tags))
+    straight, slanted = w.tags
+    assert (straight.x, straight.y) == (4.1, 1.5)
+    half = 0.5 * 0.16 * full_scale("tag36h11")
+    moved = math.hypot(slanted.x - 4.1, slanted.y - 2.5)
+    assert half * math.sin(0.12) - 0.003 <= moved <= half * math.sin(0.12) + 0.003
+    assert slanted.x < 4.1                                   # out of the wall, along its normal

@@ -204,4 +204,27 @@ def _tag(world: World, i: int, t, src: Path) -> Tag:
     if not 0.0 < tag.z + 0.5 * tag.size <= world.wall_height + 1e-9:
         raise WorldError(f"{where}: tag {tag.id} (z {tag.z}, size {tag.size}) does not fit on a "
                          f"wall of height {world.wall_height} m")
+    out = _clear_of_wall(world, tag)
+    if out > 0.0:
+        log.info("%s: tag %d hangs at %.0f deg to the map's pixel walls: moved %.3f m off the wall "
+                 "so that all of it is in front of them", where, tag.id,
+                 math.degrees(math.remainder(tag.yaw, math.pi / 2)), out)
+        tag = Tag(tag.id, tag.family, tag.x + out * nx, tag.y + out * ny, tag.z, tag.yaw, tag.size)
     return tag
+
+
+def _clear_of_wall(world: World, tag: Tag, step_m: float = 0.002, most_m: float = 0.1) -> float:
+    """How far (m) the marker must move along its normal for its whole width (quiet zone
+    included) to lie in free cells. Walls are drawn as the map's solid pixels, whose faces are
+    axis-aligned: a marker at an angle to them (a real map's wall) would sink into them at one
+    side, and the camera would see half of it. 0 for a marker on a straight face."""
+    from .markers import full_scale
+    half = 0.5 * tag.size * full_scale(tag.family)
+    nx, ny = math.cos(tag.yaw), math.sin(tag.yaw)
+    along = np.linspace(-half, half, 21)
+    px, py = tag.x - along * ny, tag.y + along * nx          # the marker's bottom edge, seen from above
+    for k in range(int(most_m / step_m) + 1):
+        d = k * step_m + 0.001
+        if all(world.is_free(x + d * nx, y + d * ny) for x, y in zip(px, py)):
+            return k * step_m
+    return 0.0
