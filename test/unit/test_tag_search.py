@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from turtlebot_recon.exploration.strategies import Context
-from turtlebot_recon.exploration.tag_search import (TagSearch, TagSearchSettings, TagSighting, View,
+from turtlebot_recon.exploration.tag_search import (TagSearch, TagSearchSettings, View,
                                                     best_window)
+from turtlebot_recon.perception.tracker import Glimpse
 from turtlebot_recon.planning import dijkstra
 from turtlebot_recon.robot import load_robot
 
@@ -61,7 +62,7 @@ def test_a_wall_view_faces_unseen_wall_and_an_all_round_look_ends_the_search():
 def test_an_unconfirmed_tag_comes_first_and_is_looked_at_from_in_front():
     occ, ts = room(), search()
     ctx = context(occ)
-    tag = TagSighting("tag36h11", 4, 5.95, 2.5, math.pi)      # on the east wall, facing west
+    tag = Glimpse("tag36h11", 4, 5.95, 2.5, math.pi, 0.0)     # on the east wall, facing west
     view = ts.choose(ctx, [tag], never)
     assert view.kind == "tag" and view.targets == ("tag36h11", 4)
     assert math.dist(view.xy, (4.95, 2.5)) <= 0.6 + 1e-9       # tag_view_m in front (snapped)

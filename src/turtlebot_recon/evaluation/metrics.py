@@ -67,23 +67,43 @@ def distance_until(path: np.ndarray, t_s):
 FALSE_TAG_M = 0.5      # a confirmed tag farther than this from its true place counts as false
 
 
+def tag_key(family, tag_id) -> tuple:
+    """What an estimate and a true tag are matched by: the family's marker set and the id (None
+    for the set of a tag without a family)."""
+    if family is None:
+        return None, tag_id
+    from ..perception.families import marker_set
+    return marker_set(family), int(tag_id)
+
+
+def match_tags(true_tags: list, estimated: list) -> list:
+    """For each estimate (family, id, x, y, z; family and z may be None), in order, (index of
+    the true tag it matches, error m), or (None, None) for a false tag: the true tag of its
+    marker set and id (the last one listed), if within FALSE_TAG_M; 3-D where both have a z,
+    else in x-y."""
+    index = {tag_key(f, i): k for k, (f, i, *_) in enumerate(true_tags)}
+    out = []
+    for f, i, x, y, z in estimated:
+        k = index.get(tag_key(f, i))
+        if k is not None:
+            _, _, tx, ty, tz = true_tags[k]
+            dz = 0.0 if z is None or tz is None else z - tz
+            e = math.sqrt((x - tx) ** 2 + (y - ty) ** 2 + dz ** 2)
+            if e <= FALSE_TAG_M:
+                out.append((k, e))
+                continue
+        out.append((None, None))
+    return out
+
+
 def tag_metrics(true_tags: list, estimated: list) -> dict:
     """DESIGN §6's tag keys. ``true_tags``: (family, id, x, y, z) in the map frame (every tag
-    the world places); ``estimated``: (family, id, x, y, z) of the confirmed tags. A confirmed
-    tag matches the true one of its marker set and id if within FALSE_TAG_M (3-D); one with no
-    such true tag is false. Errors are 3-D distances (m) of the matched ones."""
-    from ..perception.families import marker_set
-    truth = {(marker_set(f), int(i)): np.array([x, y, z], float) for f, i, x, y, z in true_tags}
-    errors, false = [], 0
-    for f, i, x, y, z in estimated:
-        t = truth.get((marker_set(f), int(i)))
-        e = None if t is None else float(np.linalg.norm(np.array([x, y, z], float) - t))
-        if e is None or e > FALSE_TAG_M:
-            false += 1
-        else:
-            errors.append(e)
-    return {"tags_placed": len(truth), "tags_confirmed": len(estimated),
-            "tag_recall": round(len(errors) / len(truth), 4) if truth else None,
+    the world places); ``estimated``: (family, id, x, y, z) of the confirmed tags, matched by
+    ``match_tags``; one that matches none is false. Errors are 3-D distances (m)."""
+    errors = [e for k, e in match_tags(list(true_tags), list(estimated)) if k is not None]
+    placed = len({tag_key(f, i) for f, i, *_ in true_tags})
+    return {"tags_placed": placed, "tags_confirmed": len(estimated),
+            "tag_recall": round(len(errors) / placed, 4) if placed else None,
             "tag_error_median_m": round(float(np.median(errors)), 4) if errors else None,
             "tag_error_max_m": round(float(np.max(errors)), 4) if errors else None,
-            "false_tags": false}
+            "false_tags": len(estimated) - len(errors)}

@@ -220,33 +220,12 @@ def _tag_fields(tag) -> tuple:
     return tag[0], tag[1], float(tag[2]), float(tag[3]), None if z is None else float(z)
 
 
-def _tag_key(family, tag_id) -> tuple:
-    """What an estimate and a true tag are matched by: marker set and id (the family's marker
-    set, as tag_metrics compares them; None without a family)."""
-    if family is None:
-        return None, tag_id
-    from ..perception.families import marker_set
-    return marker_set(family), int(tag_id)
-
-
 def match_tags(true_tags, estimated) -> list:
     """For each estimate (in order) the index in ``true_tags`` of the true tag it matches, or
-    None for a false tag: the true tag of its marker set and id, if within metrics.FALSE_TAG_M
-    (3-D where both have a z, else in x-y), as ``tag_metrics`` counts them. Tags as plot_map
-    takes them; a tag without a family matches only one without."""
-    from .metrics import FALSE_TAG_M
-    truth = [_tag_fields(t) for t in true_tags]
-    index = {_tag_key(f, i): k for k, (f, i, *_) in enumerate(truth)}   # the last one, as tag_metrics
-    out = []
-    for f, i, x, y, z in (_tag_fields(t) for t in estimated):
-        k = index.get(_tag_key(f, i))
-        if k is not None:
-            _, _, tx, ty, tz = truth[k]
-            dz = 0.0 if z is None or tz is None else z - tz
-            if math.sqrt((x - tx) ** 2 + (y - ty) ** 2 + dz ** 2) > FALSE_TAG_M:
-                k = None
-        out.append(k)
-    return out
+    None for a false tag (``metrics.match_tags``, as ``tag_metrics`` counts them). Tags as
+    plot_map takes them; a tag without a family matches only one without."""
+    from .metrics import match_tags as match
+    return [k for k, _ in match([_tag_fields(t) for t in true_tags], [_tag_fields(t) for t in estimated])]
 
 
 # plot_map's tags: true tags hollow, estimates filled, false tags red; the legend's labels

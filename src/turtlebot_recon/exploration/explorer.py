@@ -70,7 +70,7 @@ from ..robot import RobotSpec
 from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
 from .strategies import Context
-from .tag_search import TagSearch, TagSighting, View
+from .tag_search import TagSearch, View
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
 INFO, WARNING = logging.INFO, logging.WARNING
@@ -454,17 +454,16 @@ class Explorer:
         if self.phase != "tags":
             self.phase = self._out.phase = "tags"
             self._log(INFO, "explorer: no frontier goal left at t=%.1f s: tag search begins", now)
-        sightings = [TagSighting(g.family, g.id, g.x, g.y, g.yaw) for g in unconfirmed]
         pursued = self.view if self.nav == "active" else None
-        view = self.search.choose(ctx, sightings, self.book.is_blacklisted, pursued)
+        view = self.search.choose(ctx, unconfirmed, self.book.is_blacklisted, pursued)
         search = self.search
         if search.coverage.seen is not None and search.coverage.seen.shape == ctx.occupancy.shape:
-            self._out.camera_coverage = Grid(search.coverage.to_occupancy_grid_data(search.free_region(ctx)),
+            self._out.camera_coverage = Grid(search.coverage.to_occupancy_grid_data(search.region),
                                              ctx.resolution, ctx.origin)
         if view is None:
             self._log_throttled(10.0, now, INFO, "explorer: tag search: nothing left to look at (%.1f %% "
                                 "of the walls seen, %d unconfirmed tags)", 100.0 * (search.seen_share or 0.0),
-                                len(sightings))
+                                len(unconfirmed))
         return view
 
     def _look(self, view: View, pose: tuple) -> None:

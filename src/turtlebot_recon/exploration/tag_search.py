@@ -31,6 +31,7 @@ from .. import _native
 from ..config import positive, require
 from ..geometry import inside, points_to_cells
 from ..perception.camera_coverage import CameraCoverage, CoverageSettings
+from ..perception.tracker import Glimpse
 from ..robot import CameraSpec
 from .strategies import Context
 
@@ -73,16 +74,6 @@ class View:
                                # tag views: (family, id)
 
 
-@dataclass(frozen=True)
-class TagSighting:
-    """A tag the tracker knows but has not confirmed: (family, id) at (x, y), normal yaw."""
-    family: str
-    id: int
-    x: float
-    y: float
-    yaw: float
-
-
 class TagSearch:
     """The camera's coverage map and the choice of the next view (module docstring)."""
 
@@ -93,6 +84,7 @@ class TagSearch:
         self.coverage = CameraCoverage.for_camera(camera, settings.coverage)
         self.seen_share: Optional[float] = None
         self.walls: Optional[np.ndarray] = None          # the last cycle's wall cells (bool)
+        self.region: Optional[np.ndarray] = None         # ... and the free space they face
         self._looked_at = np.zeros((0, 2))               # wall cells views were reached for (m)
         self._tag_looks: dict = {}                       # (family, id) -> tag views reached
 
@@ -118,7 +110,7 @@ class TagSearch:
         return np.isin(labels, keep[keep > 0])
 
     def unseen_walls(self, ctx: Context) -> np.ndarray:
-        region = self.free_region(ctx)
+        region = self.region = self.free_region(ctx)
         walls = self.coverage.wall_cells(ctx.occupancy, region)
         self.walls = walls
         seen = self.coverage.seen
@@ -129,7 +121,7 @@ class TagSearch:
         self.seen_share = 1.0 if total == 0 else 1.0 - int(unseen.sum()) / total
         return unseen
 
-    def choose(self, ctx: Context, unconfirmed: Sequence[TagSighting], blocked,
+    def choose(self, ctx: Context, unconfirmed: Sequence[Glimpse], blocked,
                pursued: Optional[View] = None) -> Optional[View]:
         """The next view, or None when the search is over. ``blocked(xy)``: a view there failed
         before (the goal book's blacklist). ``pursued``: the view being driven to, kept while
@@ -156,7 +148,7 @@ class TagSearch:
         return int(unseen[rows[ok], cols[ok]].sum()) * ctx.resolution >= self.s.min_gain_m
 
     # ------------------------------------------------------------------------ views
-    def _tag_view(self, ctx: Context, unconfirmed: Sequence[TagSighting], blocked) -> Optional[View]:
+    def _tag_view(self, ctx: Context, unconfirmed: Sequence[Glimpse], blocked) -> Optional[View]:
         best, best_cost = None, math.inf
         for t in unconfirmed:
             if self._tag_looks.get((t.family, t.id), 0) >= TAG_LOOKS:
