@@ -369,6 +369,7 @@ using turtlebot_recon::ScanStats;
 namespace {
 
 using FloatArray = py::array_t<float, turtlebot_recon::bindings::kInFlags>;
+using DoubleArray = py::array_t<double, turtlebot_recon::bindings::kInFlags>;
 
 std::string repr(const ScanStats& s) {
   std::ostringstream o;
@@ -406,6 +407,47 @@ ScanStats py_insert_scan(OccupancyGrid& grid, double sensor_x, double sensor_y, 
   scan.range_cap_m = range_cap_m;
   py::gil_scoped_release release;
   return grid.insert_scan(scan);
+}
+
+// Re-rendering after a SLAM correction: the keyframes' scans (one lidar, so one beam layout)
+// inserted at their optimised sensor poses, one after another, in one call without the GIL.
+ScanStats py_insert_scans(OccupancyGrid& grid, const DoubleArray& poses, const FloatArray& ranges,
+                          double angle_min, double angle_increment, double range_min,
+                          double range_max, double no_return_clear_m, double range_cap_m) {
+  if (poses.ndim() != 2 || poses.shape(1) != 3)
+    throw std::invalid_argument("insert_scans: poses must be an (n, 3) array of x, y, yaw");
+  if (ranges.ndim() != 2 || ranges.shape(0) != poses.shape(0))
+    throw std::invalid_argument("insert_scans: ranges must be an (n, beams) array, one row per pose; got " +
+                                std::to_string(ranges.ndim()) + "-D for " +
+                                std::to_string(poses.shape(0)) + " poses");
+  const auto n = static_cast<std::size_t>(poses.shape(0));
+  const auto beams = static_cast<std::size_t>(ranges.shape(1));
+  const double* p = poses.data();
+  const float* r = ranges.data();
+  ScanStats total;
+  py::gil_scoped_release release;
+  for (std::size_t i = 0; i < n; ++i) {
+    turtlebot_recon::Scan scan;
+    scan.sensor_x = p[3 * i];
+    scan.sensor_y = p[3 * i + 1];
+    scan.sensor_yaw = p[3 * i + 2];
+    scan.ranges = r + i * beams;
+    scan.count = beams;
+    scan.angle_min = angle_min;
+    scan.angle_increment = angle_increment;
+    scan.range_min = range_min;
+    scan.range_max = range_max;
+    scan.no_return_clear_m = no_return_clear_m;
+    scan.range_cap_m = range_cap_m;
+    const ScanStats s = grid.insert_scan(scan);
+    total.valid += s.valid;
+    total.no_return += s.no_return;
+    total.capped += s.capped;
+    total.too_close += s.too_close;
+    total.nan += s.nan;
+    total.total += s.total;
+  }
+  return total;
 }
 
 // A (rows, cols) array of T written from the grid's cells, under its lock, by
@@ -463,6 +505,11 @@ void register_mapping(py::module_& m) {
            py::arg("no_return_clear_m") = 0.0, py::arg("range_cap_m") = 0.0,
            "Insert one scan taken at the sensor pose (map frame). ranges: 1-D float32 array (m),\n"
            "beam i at sensor_yaw + angle_min + i*angle_increment. Returns ScanStats.")
+      .def("insert_scans", &py_insert_scans, py::arg("poses"), py::arg("ranges"),
+           py::arg("angle_min"), py::arg("angle_increment"), py::arg("range_min"),
+           py::arg("range_max"), py::arg("no_return_clear_m") = 0.0, py::arg("range_cap_m") = 0.0,
+           "Insert n scans of one lidar in order: poses (n, 3) sensor x, y, yaw (map frame),\n"
+           "ranges (n, beams) float32. Returns the ScanStats summed over the scans.")
       .def("mark_bumper", &OccupancyGrid::mark_bumper, py::arg("x"), py::arg("y"), py::arg("yaw"),
            py::arg("bumper_angle_rad"), py::arg("robot_radius_m"), py::arg("cells") = 5,
            "Mark `cells` cells occupied along the body's tangent where the bumper at body angle\n"

@@ -1,4 +1,5 @@
-"""Angles and grid cells: the one place that converts metres to cells and wraps angles.
+"""Angles, planar poses and grid cells: the one place that converts metres to cells, wraps
+angles and composes SE(2) poses.
 
 Grids are in nav_msgs/OccupancyGrid order: row 0 holds the smallest y, cell (row, col) is the
 square ``origin + [col, col + 1) x [row, row + 1)`` cells, unrotated (``origin`` is (x, y[, yaw])
@@ -16,6 +17,29 @@ import numpy as np
 def wrap_angle(a):
     """An angle (rad), or an array of them, wrapped into [-pi, pi) (pi itself -> -pi)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def compose(a, b) -> np.ndarray:
+    """The pose ``a ⊕ b`` (x, y, yaw): ``b`` given in ``a``'s frame, brought into ``a``'s parent.
+    Either argument may be an (n, 3) array (broadcast)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    return np.stack([a[..., 0] + c * b[..., 0] - s * b[..., 1],
+                     a[..., 1] + s * b[..., 0] + c * b[..., 1],
+                     wrap_angle(a[..., 2] + b[..., 2])], axis=-1)
+
+
+def inverse(a) -> np.ndarray:
+    """The pose ``⊖a``: ``compose(a, inverse(a))`` is the identity."""
+    a = np.asarray(a, float)
+    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
+    return np.stack([-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1],
+                     wrap_angle(-a[..., 2])], axis=-1)
+
+
+def between(a, b) -> np.ndarray:
+    """``b`` seen from ``a`` (``⊖a ⊕ b``, GTSAM's ``a.between(b)``)."""
+    return compose(inverse(a), b)
 
 
 def xy_to_cell(xy: Sequence[float], resolution: float, origin: Sequence[float]) -> Tuple[int, int]:

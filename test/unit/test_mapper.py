@@ -7,6 +7,7 @@ import pytest
 
 from conftest import room, write_world
 from turtlebot_recon.evaluation import map_precision
+from turtlebot_recon.geometry import compose
 from turtlebot_recon.mapping.map_io import MapError, load_map, save_map
 from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan
 from turtlebot_recon.robot import load_robot
@@ -153,3 +154,49 @@ def test_the_floor_under_the_robot_is_free_once_it_stands_there():
     assert (occ >= 65).sum() == (before >= 65).sum() == 1            # the known cell kept
     # a second call changes nothing: those cells are known now
     assert g.free_unknown_disc(1.0, 1.1, 0.14) == 0
+
+
+def test_redraw_from_corrected_keyframes_makes_a_drifted_map_precise(tmp_path):
+    """Scans inserted at drifting poses smear the room; once SLAM's corrected keyframe poses
+    arrive (base poses, scans claimed by stamp), the redrawn map is as precise as one drawn at
+    the true poses, and a second identical set of poses needs no redraw."""
+    world = load_world(write_world(tmp_path, "r", room(4.0, 3.0), start=[1.0, 1.0, 0.0]))
+    sim = Simulator(world, load_robot("turtlebot3_burger"), SimSettings(camera_rate_hz=0.0, seed=2))
+    lid = sim.robot.lidar
+    offset = (lid.x_m, lid.y_m, 0.0)
+    core = Mapper(MapperSettings(), robot_radius_m=0.105)
+    true_poses, stamps = [], []
+    for k in range(16):
+        true = (0.15 * k, 0.08 * k, 0.3 * k)              # map frame = start pose
+        sim.set_pose(1.0 + true[0], 1.0 + true[1], true[2])
+        drift = (0.02 * k, -0.015 * k, 0.02 * k)          # odometry's error grows
+        seen = compose(true, drift)
+        core.insert(Scan(sim.scan(), lid.angle_min_rad, lid.angle_max_rad, lid.angle_increment_rad,
+                         lid.range_min_m, lid.range_max_m, 10.0 + k), tuple(compose(seen, offset)))
+        true_poses.append(true)
+        stamps.append(10.0 + k)
+    sim.close()
+
+    reference = Mapper(MapperSettings(), robot_radius_m=0.105)      # drawn at the true poses
+    for k, p in enumerate(true_poses):
+        reference.insert(core.recent[k][0], tuple(compose(p, offset)))
+
+    def occupied(grid):   # the occupied cells' centres, map frame (grids may differ in extent)
+        rows, cols = np.nonzero(grid.occupancy() >= 65)
+        return {(round(grid.origin_x / 0.05) + c, round(grid.origin_y / 0.05) + r) for r, c in zip(rows, cols)}
+
+    truth = occupied(reference.grid)
+    assert len(occupied(core.grid) ^ truth) > 0.5 * len(truth)     # the drift smeared the walls
+    # SLAM first reported the keyframes where odometry put them: drawn already, nothing to do
+    assert not core.needs_redraw(stamps, [compose(p, (0.02 * k, -0.015 * k, 0.02 * k))
+                                          for k, p in enumerate(true_poses)])
+    # then corrected them
+    assert core.needs_redraw(stamps, true_poses)
+    grid = core.redraw(stamps, true_poses, offset)
+    core.swap(grid, since_stamp_s=stamps[-1])
+    assert core.grid is grid and core.rerenders == 1
+    assert occupied(core.grid) == truth
+    p = map_precision(grid.occupancy(), grid.resolution, (grid.origin_x, grid.origin_y), world, world.start)
+    assert p["map_precision_occupied"] >= 0.98 and p["map_precision_free"] >= 0.98
+    assert not core.needs_redraw(stamps, true_poses)
+    assert "redrawn 1 times from 16 keyframes" in core.diagnostics()
