@@ -1,0 +1,544 @@
+"""Sensor logs a run can be replayed from: CARMEN text logs and rosbags, read into plain records.
+
+Both readers yield the same records, oldest first: ``LaserRecord``, ``OdomRecord``,
+``ImuRecord`` (rosbag only), ``TagRecord`` (rosbag only) and ``TimeJump`` (rosbag only: time
+went back, as when a looping bag was recorded; a consumer clears its state). A line or message
+that cannot be used is skipped and counted by reason, never raised out of the iterator; after
+the iteration ``summary()`` gives one line for the caller to log. ``LogError`` is raised only
+for a file that cannot be read at all.
+
+CARMEN (http://carmen.sourceforge.net/logger_playback.html and the logger's writer,
+``carmen_logwrite_write_robot_laser`` in CARMEN 0.7's ``logger/writelog.c``): one message per
+line, ``NAME fields... ipc_timestamp ipc_hostname logger_timestamp``.
+
+- ``ODOM x y theta tv rv accel``
+- ``FLASER num_readings [range_readings] x y theta odom_x odom_y odom_theta``: the first pose
+  is the laser's, the second the robot's odometry; the beam geometry is not in the line:
+  180° from -90° in steps of 180°/n for an even n (180 beams: -90°..+89° in 1° steps) and
+  180°/(n - 1) for an odd n (181 beams: -90°..+90°), the steps GMapping's carmen reader uses;
+  no maximum range either (``flaser_range_max_m``).
+- ``ROBOTLASER1 laser_type start_angle field_of_view angular_resolution maximum_range accuracy
+  remission_mode num_readings [range_readings] num_remissions [remissions] laser_pose_x
+  laser_pose_y laser_pose_theta robot_pose_x robot_pose_y robot_pose_theta laser_tv laser_rv
+  forward_safety_dist side_safety_dist turn_axis``. The older documentation lists no
+  remissions and no turn_axis; both layouts are read (a remission count is an integer token,
+  a pose is written with ``%f``).
+- ``RAWLASER1``: the same laser header, remissions, no poses (written for a scan without odometry).
+
+Time stamps are the ipc_timestamp (the sender's clock when the message was published), the
+standard choice of the tools that read these logs; the logger_timestamp (seconds since the
+logger started) is ignored. Lines are in arrival order, which is not always time order (intel.clf):
+the records are sorted by time stamp and the reordered ones counted. Ranges: a reading at or
+beyond the maximum range is CARMEN's "no return" and becomes +inf (REP 117), a reading <= 0
+becomes NaN; comments (``#``) and other messages (PARAM, SYNC, NMEA..., ROBOTLASER2) are
+counted and skipped.
+
+rosbag: ``/scan`` (sensor_msgs/LaserScan), ``/odom`` (nav_msgs/Odometry), optionally ``/imu``
+(sensor_msgs/Imu: yaw rate) and ``/tags/detections`` (turtlebot_recon/TagDetectionArray, kept
+as the message). ``rosbag`` (Debian's python3-rosbag) is imported only when a bag is read or
+written, so this module imports without ROS.
+"""
+from __future__ import annotations
+
+import gzip
+import heapq
+import itertools
+import math
+import re
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Iterator, List, Optional, Tuple, Union
+
+import numpy as np
+
+FLASER_RANGE_MAX_M = 81.9     # SICK LMS (the FLASER datasets' laser): 8191 cm is "no return"
+MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*$")
+MAX_BEAMS = 100_000           # a count above this is a corrupted field, not a laser
+
+Pose = Tuple[float, float, float]
+
+
+class LogError(ValueError):
+    """The file cannot be read as a log at all (missing, not a bag, no scan topic)."""
+
+
+@dataclass(frozen=True, eq=False)
+class LaserRecord:
+    """One scan; angles in the laser's frame, counter-clockwise, ranges (m) as float32."""
+    stamp_s: float
+    ranges: np.ndarray
+    angle_min: float                   # rad, bearing of ranges[0]
+    angle_increment: float             # rad
+    range_min: float                   # m
+    range_max: float                   # m
+    odom_pose: Optional[Pose] = None   # the robot's (x, y, yaw) in odom at stamp_s (CARMEN)
+    laser_pose: Optional[Pose] = None  # the laser's (x, y, yaw) in odom at stamp_s (CARMEN)
+
+
+@dataclass(frozen=True)
+class OdomRecord:
+    stamp_s: float
+    x: float        # m, odom frame
+    y: float
+    yaw: float      # rad
+    v: float        # m/s, forward
+    w: float        # rad/s
+
+
+@dataclass(frozen=True)
+class ImuRecord:
+    stamp_s: float
+    yaw_rate: float   # rad/s, angular_velocity.z
+
+
+@dataclass(frozen=True)
+class TagRecord:
+    stamp_s: float
+    msg: Any          # turtlebot_recon/TagDetectionArray as read from the bag
+
+
+@dataclass(frozen=True)
+class TimeJump:
+    """Time went back from ``previous_s`` to ``stamp_s``: what follows is a new run."""
+    stamp_s: float
+    previous_s: float
+
+
+Record = Union[LaserRecord, OdomRecord, ImuRecord, TagRecord, TimeJump]
+
+
+class LogStats:
+    """What a reader kept and skipped; the first example of each problem is kept for the log."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.kept: Counter = Counter()       # record kind -> count
+        self.skipped: Counter = Counter()    # reason -> count (data lost)
+        self.ignored: Counter = Counter()    # comment / message name / topic -> count (by design)
+        self.first: dict = {}                # reason -> "where: what"
+        self.reordered = 0
+        self.jumps: List[TimeJump] = []
+
+    def skip(self, reason: str, where: str, detail: str) -> None:
+        self.skipped[reason] += 1
+        self.first.setdefault(reason, f"{where}: {detail}")
+
+    def summary(self) -> str:
+        kept = ", ".join(f"{n} {k}" for k, n in sorted(self.kept.items())) or "no records"
+        parts = [f"{self.source}: {kept}"]
+        if self.skipped:
+            parts.append(f"skipped {sum(self.skipped.values())}: " + ", ".join(
+                f"{n} {r} (first {self.first[r]})" for r, n in sorted(self.skipped.items())))
+        if self.ignored:
+            parts.append("ignored " + ", ".join(f"{n} {k}" for k, n in sorted(self.ignored.items())))
+        if self.reordered:
+            parts.append(f"{self.reordered} out of time order (sorted)")
+        if self.jumps:
+            j = self.jumps[0]
+            parts.append(f"time went back {len(self.jumps)} time(s) (first from {j.previous_s:.3f} s "
+                         f"to {j.stamp_s:.3f} s)")
+        return "; ".join(parts)
+
+
+# ------------------------------------------------------------------------------------ CARMEN
+class _BadLine(Exception):
+    def __init__(self, reason: str, detail: str):
+        super().__init__(detail)
+        self.reason = reason
+
+
+def _float(tok: str, what: str) -> float:
+    try:
+        v = float(tok)
+    except ValueError:
+        raise _BadLine("malformed", f"{what} {tok[:20]!r} is not a number") from None
+    if not math.isfinite(v):
+        raise _BadLine("malformed", f"{what} is {tok}")
+    return v
+
+
+def _count(tok: str, what: str) -> int:
+    if not tok.isdigit() or int(tok) > MAX_BEAMS:
+        raise _BadLine("malformed", f"{what} {tok[:20]!r} is not a count")
+    return int(tok)
+
+
+def _need(tokens: list, n: int, name: str) -> None:
+    if len(tokens) < n:
+        raise _BadLine("truncated", f"{name} needs {n} fields, has {len(tokens)}")
+    if len(tokens) > n:
+        raise _BadLine("malformed", f"{name} has {len(tokens) - n} fields too many")
+
+
+def _pose(tokens: list, what: str) -> Pose:
+    x, y, yaw = (_float(t, what) for t in tokens)
+    return (x, y, yaw)
+
+
+def _ranges(tokens: list, range_max: float) -> np.ndarray:
+    try:
+        r = np.array(tokens, dtype=np.float64)
+    except ValueError:
+        raise _BadLine("malformed", "a range reading is not a number") from None
+    r = np.where(r >= range_max, np.inf, r)        # CARMEN's "no return" -> REP 117 +inf
+    return np.where(r > 0.0, r, np.nan).astype(np.float32)
+
+
+def flaser_geometry(n: int) -> Tuple[float, float]:
+    """(angle_min, angle_increment) rad of an n-beam FLASER scan: 180° from -90°."""
+    return -0.5 * math.pi, math.pi / (n - 1 if n % 2 else n)
+
+
+class CarmenReader:
+    """Records of a CARMEN log (``.gz`` read as gzip), sorted by ipc_timestamp.
+
+    ``range_min_m``: the logs do not carry it; ``flaser_range_max_m``: nor, for FLASER, this."""
+
+    def __init__(self, path: Union[str, Path], range_min_m: float = 0.0,
+                 flaser_range_max_m: float = FLASER_RANGE_MAX_M):
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise LogError(f"{self.path}: no such file")
+        self.range_min_m = range_min_m
+        self.flaser_range_max_m = flaser_range_max_m
+        self.stats = LogStats(self.path.name)
+
+    def summary(self) -> str:
+        return self.stats.summary()
+
+    def __iter__(self) -> Iterator[Record]:
+        self.stats = LogStats(self.path.name)
+        records, newest = [], -math.inf
+        opener = gzip.open if self.path.suffix == ".gz" else open
+        try:
+            with opener(self.path, "rt", encoding="utf-8", errors="replace") as f:
+                for lineno, line in enumerate(f, 1):
+                    rec = self._line(line, lineno)
+                    if rec is not None:
+                        self.stats.reordered += rec.stamp_s < newest
+                        newest = max(newest, rec.stamp_s)
+                        records.append(rec)
+        except (OSError, EOFError) as e:   # a gzip cut short: keep what was read
+            self.stats.skip("unreadable", "file", str(e))
+        records.sort(key=lambda r: r.stamp_s)   # stable: ties keep the file's order
+        for rec in records:
+            self.stats.kept[type(rec).__name__] += 1
+            yield rec
+
+    def _line(self, line: str, lineno: int) -> Optional[Record]:
+        tokens = line.split()
+        if not tokens:
+            return None
+        name = tokens[0]
+        if name.startswith("#"):
+            self.stats.ignored["comment"] += 1
+            return None
+        parse = {"ODOM": self._odom, "FLASER": self._flaser, "ROBOTLASER1": self._robotlaser,
+                 "RAWLASER1": self._robotlaser}.get(name)
+        if parse is None:
+            if MESSAGE_NAME.match(name):
+                self.stats.ignored[name] += 1
+            else:
+                self.stats.skip("malformed", f"line {lineno}", f"{name[:20]!r} is not a message name")
+            return None
+        try:
+            return parse(tokens)
+        except _BadLine as e:
+            self.stats.skip(e.reason, f"line {lineno}", str(e))
+            return None
+
+    def _odom(self, t: list) -> OdomRecord:
+        _need(t, 10, "ODOM")
+        x, y, yaw, v, w = (_float(tok, "ODOM field") for tok in t[1:6])
+        return OdomRecord(_float(t[7], "ipc_timestamp"), x, y, yaw, v, w)
+
+    def _flaser(self, t: list) -> LaserRecord:
+        n = _count(t[1], "num_readings") if len(t) > 1 else 0
+        _need(t, 2 + n + 9, "FLASER")
+        if n < 2:
+            raise _BadLine("malformed", f"FLASER with {n} readings")
+        angle_min, inc = flaser_geometry(n)
+        rest = t[2 + n:]
+        return LaserRecord(_float(rest[6], "ipc_timestamp"), _ranges(t[2:2 + n], self.flaser_range_max_m),
+                           angle_min, inc, self.range_min_m, self.flaser_range_max_m,
+                           odom_pose=_pose(rest[3:6], "odom pose"), laser_pose=_pose(rest[0:3], "laser pose"))
+
+    def _robotlaser(self, t: list) -> LaserRecord:
+        name = t[0]
+        if len(t) < 10:
+            raise _BadLine("truncated", f"{name} needs at least 10 fields, has {len(t)}")
+        start, _fov, inc, range_max = (_float(tok, f"{name} header") for tok in t[2:6])
+        if inc == 0.0 or range_max <= 0.0:
+            raise _BadLine("malformed", f"{name} angular_resolution {inc}, maximum_range {range_max}")
+        n = _count(t[8], "num_readings")
+        rest = t[9 + n:]
+        if len(rest) < 4:
+            raise _BadLine("truncated", f"{name} declares {n} readings, has {max(len(t) - 9, 0)}")
+        # Where the poses start: after num_remissions and the remissions (CARMEN 0.7: an
+        # integer token), or right after the ranges (the older layout).
+        layouts = [1 + int(rest[0])] if rest[0].isdigit() and int(rest[0]) <= MAX_BEAMS else []
+        if name == "RAWLASER1":
+            if not layouts:
+                raise _BadLine("malformed", f"{name} num_remissions {rest[0][:20]!r} is not a count")
+            _need(rest, layouts[0] + 3, name)
+            odom = laser = None
+        else:
+            tails = [len(rest) - at for at in layouts + [0]]   # 13 fields without turn_axis, 14 with
+            fits = [at for at, tail in zip(layouts + [0], tails) if 13 <= tail <= 14]
+            if not fits:
+                if tails[0] < 13:
+                    raise _BadLine("truncated", f"{name} ends {13 - tails[0]} fields short")
+                raise _BadLine("malformed", f"{name} has {tails[0] - 14} fields too many")
+            at = fits[0]
+            laser = _pose(rest[at:at + 3], "laser pose")
+            odom = _pose(rest[at + 3:at + 6], "robot pose")
+        return LaserRecord(_float(rest[-3], "ipc_timestamp"), _ranges(t[9:9 + n], range_max),
+                           start, inc, self.range_min_m, range_max, odom_pose=odom, laser_pose=laser)
+
+
+def _f(v: float) -> str:
+    return repr(float(v))   # shortest text that reads back to the same double
+
+
+def _carmen_ranges(rec: LaserRecord) -> str:
+    """Ranges as the shortest float32 text; invalid ones as maximum_range (CARMEN's no return),
+    a valid one at maximum_range just below it."""
+    r = np.asarray(rec.ranges, dtype=np.float32)
+    below = np.float32(rec.range_max)
+    while float(below) >= rec.range_max:
+        below = np.nextafter(below, np.float32(0.0))
+    r64 = r.astype(np.float64)          # compared in double, as the reader will
+    valid = np.isfinite(r64) & (r64 >= rec.range_min) & (r64 <= rec.range_max) & (r64 > 0.0)
+    none = _f(rec.range_max)
+    return " ".join(str(v) if ok else none for v, ok in zip(np.minimum(r, below), valid))
+
+
+def write_carmen(path: Union[str, Path], records: Iterable[Record], host: str = "turtlebot_recon",
+                 flaser: bool = False) -> int:
+    """Write LaserRecords (ROBOTLASER1; RAWLASER1 without an odom pose; FLASER with
+    ``flaser`` for a 180-beam scan of FLASER's geometry) and OdomRecords; returns the lines
+    written. Read back by ``CarmenReader``: equal but for invalid ranges, which come back as
+    +inf, and range_min (and a FLASER's range_max), which the format does not carry.
+    TypeError for any other record."""
+    lines = ["# CARMEN Logfile", "# file format is one message per line",
+             "# message_name [message contents] ipc_timestamp ipc_hostname logger_timestamp",
+             "# ODOM x y theta tv rv accel",
+             "# FLASER num_readings [range_readings] x y theta odom_x odom_y odom_theta",
+             "# RAWLASER1 laser_type start_angle field_of_view angular_resolution maximum_range accuracy "
+             "remission_mode num_readings [range_readings] num_remissions [remission values]",
+             "# ROBOTLASER1 laser_type start_angle field_of_view angular_resolution maximum_range accuracy "
+             "remission_mode num_readings [range_readings] num_remissions [remission values] laser_pose_x "
+             "laser_pose_y laser_pose_theta robot_pose_x robot_pose_y robot_pose_theta laser_tv laser_rv "
+             "forward_safety_dist side_safty_dist turn_axis",
+             "# written by turtlebot_recon: ipc_timestamp = the record's stamp (s)"]
+    t0 = None
+    count = 0
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+        for rec in records:
+            t0 = rec.stamp_s if t0 is None else t0
+            stamps = f"{_f(rec.stamp_s)} {host} {rec.stamp_s - t0:.6f}"
+            if isinstance(rec, OdomRecord):
+                f.write(f"ODOM {_f(rec.x)} {_f(rec.y)} {_f(rec.yaw)} {_f(rec.v)} {_f(rec.w)} 0.0 {stamps}\n")
+            elif isinstance(rec, LaserRecord):
+                f.write(_laser_line(rec, flaser) + f" {stamps}\n")
+            else:
+                raise TypeError(f"write_carmen: no CARMEN message for {type(rec).__name__}")
+            count += 1
+    return count
+
+
+def _laser_line(rec: LaserRecord, flaser: bool) -> str:
+    n = len(rec.ranges)
+    odom, laser = rec.odom_pose, rec.laser_pose or rec.odom_pose
+    if flaser and odom is not None and n == 180 and np.allclose(
+            (rec.angle_min, rec.angle_increment), flaser_geometry(n), atol=1e-9):
+        return f"FLASER {n} {_carmen_ranges(rec)} " + " ".join(_f(v) for v in (*laser, *odom))
+    fov = (n - 1) * rec.angle_increment
+    head = (f"0 {_f(rec.angle_min)} {_f(fov)} {_f(rec.angle_increment)} {_f(rec.range_max)} 0.0 0 "
+            f"{n} {_carmen_ranges(rec)} 0")   # laser_type (not read), ..., no remissions
+    if odom is None:
+        return f"RAWLASER1 {head}"
+    return f"ROBOTLASER1 {head} " + " ".join(_f(v) for v in (*laser, *odom)) + " 0.0 0.0 0.0 0.0 0.0"
+
+
+# ------------------------------------------------------------------------------------ rosbag
+def _rosbag():
+    """The rosbag module and the message classes, imported on first use."""
+    try:
+        import genpy
+        import rosbag
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import Imu, LaserScan
+    except ImportError as e:
+        raise ImportError(f"reading or writing a rosbag needs ROS's rosbag module "
+                          f"(Debian: python3-rosbag): {e}") from e
+    return rosbag, genpy, LaserScan, Odometry, Imu
+
+
+def _yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+class BagReader:
+    """Records of a rosbag in header-stamp order, with TimeJump where time went back.
+
+    Messages are read in the bag's (recording) order and re-sorted by header stamp within
+    ``reorder_window_s``; a stamp more than ``jump_back_s`` older than the newest seen is a
+    jump back (the buffer is flushed, a TimeJump yielded); a message older than one already
+    yielded but within ``jump_back_s`` is late and skipped. A zero header stamp takes the
+    bag's time. ``imu_topic`` / ``tags_topic`` may be None or absent from the bag."""
+
+    EXPECTED = {"scan": "sensor_msgs/LaserScan", "odom": "nav_msgs/Odometry",
+                "imu": "sensor_msgs/Imu", "tags": "turtlebot_recon/TagDetectionArray"}
+
+    def __init__(self, path: Union[str, Path], scan_topic: str = "/scan", odom_topic: str = "/odom",
+                 imu_topic: Optional[str] = "/imu", tags_topic: Optional[str] = "/tags/detections",
+                 reorder_window_s: float = 0.5, jump_back_s: float = 1.0):
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise LogError(f"{self.path}: no such file")
+        rosbag = _rosbag()[0]
+        try:
+            with rosbag.Bag(str(self.path)) as bag:
+                types = {t: i.msg_type for t, i in bag.get_type_and_topic_info().topics.items()}
+        except Exception as e:   # ROSBagException, ROSBagFormatException, struct errors...
+            raise LogError(f"{self.path}: not a readable rosbag ({type(e).__name__}: {e})") from None
+        wanted = {"scan": scan_topic, "odom": odom_topic, "imu": imu_topic, "tags": tags_topic}
+        if scan_topic not in types:
+            raise LogError(f"{self.path}: no {scan_topic} in the bag (topics: {', '.join(sorted(types)) or 'none'})")
+        self.topics = {}
+        for kind, topic in wanted.items():
+            if topic is None or topic not in types:
+                continue
+            if types[topic] != self.EXPECTED[kind]:
+                raise LogError(f"{self.path}: {topic} is {types[topic]}, expected {self.EXPECTED[kind]}")
+            self.topics[topic] = kind
+        self.reorder_window_s, self.jump_back_s = reorder_window_s, jump_back_s
+        self.stats = LogStats(self.path.name)
+
+    def summary(self) -> str:
+        return self.stats.summary()
+
+    def __iter__(self) -> Iterator[Record]:
+        self.stats = LogStats(self.path.name)
+        rosbag = _rosbag()[0]
+        with rosbag.Bag(str(self.path)) as bag:
+            stamped = (self._convert(topic, msg, t.to_sec())
+                       for topic, msg, t in bag.read_messages(topics=list(self.topics)))
+            for rec in self._ordered(r for r in stamped if r is not None):
+                self.stats.kept[type(rec).__name__] += 1
+                yield rec
+
+    def _convert(self, topic: str, msg, bag_s: float) -> Optional[Record]:
+        kind = self.topics[topic]
+        stamp = msg.header.stamp.to_sec()
+        if stamp == 0.0:
+            self.stats.ignored["zero stamps (bag time used)"] += 1
+            stamp = bag_s
+        if kind == "scan":
+            values = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+            if not all(math.isfinite(v) for v in values) or msg.angle_increment == 0.0:
+                self.stats.skip("bad scan", f"{topic} at {stamp:.3f} s", f"geometry {values}")
+                return None
+            return LaserRecord(stamp, np.asarray(msg.ranges, dtype=np.float32), *values)
+        if kind == "odom":
+            p, tw = msg.pose.pose, msg.twist.twist
+            vals = (p.position.x, p.position.y, _yaw(p.orientation), tw.linear.x, tw.angular.z)
+            if not all(math.isfinite(v) for v in vals):
+                self.stats.skip("non-finite odometry", f"{topic} at {stamp:.3f} s", f"{vals}")
+                return None
+            return OdomRecord(stamp, *vals)
+        if kind == "imu":
+            w = msg.angular_velocity.z
+            if not math.isfinite(w):
+                self.stats.skip("non-finite imu", f"{topic} at {stamp:.3f} s", f"yaw rate {w}")
+                return None
+            return ImuRecord(stamp, w)
+        return TagRecord(stamp, msg)
+
+    def _ordered(self, records: Iterable[Record]) -> Iterator[Record]:
+        heap: list = []
+        seq = itertools.count()
+        newest, last_out = -math.inf, -math.inf
+        for rec in records:
+            s = rec.stamp_s
+            if s < newest - self.jump_back_s:
+                while heap:
+                    yield heapq.heappop(heap)[2]
+                jump = TimeJump(s, newest)
+                self.stats.jumps.append(jump)
+                yield jump
+                newest, last_out = s, -math.inf
+            elif s < last_out:
+                self.stats.skip("late", f"{type(rec).__name__} at {s:.3f} s",
+                                f"{last_out - s:.3f} s older than one already given")
+                continue
+            self.stats.reordered += s < newest
+            newest = max(newest, s)
+            heapq.heappush(heap, (s, next(seq), rec))
+            while heap and heap[0][0] <= newest - self.reorder_window_s:
+                last_out = heap[0][0]
+                yield heapq.heappop(heap)[2]
+        while heap:
+            yield heapq.heappop(heap)[2]
+
+
+def _ros_time(genpy, stamp_s: float):
+    """genpy.Time to the nearest nanosecond (``from_sec`` truncates: 2.4 s would read 2.399999999)."""
+    ns = int(round(stamp_s * 1e9))
+    return genpy.Time(ns // 1_000_000_000, ns % 1_000_000_000)
+
+
+def write_rosbag(path: Union[str, Path], records: Iterable[Record], scan_topic: str = "/scan",
+                 odom_topic: str = "/odom", imu_topic: str = "/imu", tags_topic: str = "/tags/detections",
+                 scan_frame: str = "base_scan", odom_frame: str = "odom",
+                 base_frame: str = "base_footprint", imu_frame: str = "imu_link") -> int:
+    """Write the records as ROS messages, header stamp = the record's stamp; returns the
+    messages written. The bag's time is the stamp too, but a microsecond after the previous
+    message's when the stamp is not later (a recorder's clock does not go back): the bag reads
+    back in the written order, and a stream whose stamps go back with a TimeJump. TimeJump records
+    are not written (the stamps show the jump)."""
+    rosbag, genpy, LaserScan, Odometry, Imu = _rosbag()
+    count, bag_t = 0, -math.inf
+    with rosbag.Bag(str(path), "w") as bag:
+        for rec in records:
+            if isinstance(rec, TimeJump):
+                continue
+            stamp = _ros_time(genpy, rec.stamp_s)
+            if isinstance(rec, LaserRecord):
+                topic, msg = scan_topic, LaserScan()
+                msg.header.frame_id = scan_frame
+                n = len(rec.ranges)
+                msg.angle_min, msg.angle_increment = rec.angle_min, rec.angle_increment
+                msg.angle_max = rec.angle_min + (n - 1) * rec.angle_increment
+                msg.range_min, msg.range_max = rec.range_min, rec.range_max
+                msg.ranges = np.asarray(rec.ranges, dtype=np.float32).tolist()
+            elif isinstance(rec, OdomRecord):
+                topic, msg = odom_topic, Odometry()
+                msg.header.frame_id, msg.child_frame_id = odom_frame, base_frame
+                msg.pose.pose.position.x, msg.pose.pose.position.y = rec.x, rec.y
+                o = msg.pose.pose.orientation
+                o.z, o.w = math.sin(0.5 * rec.yaw), math.cos(0.5 * rec.yaw)
+                msg.twist.twist.linear.x, msg.twist.twist.angular.z = rec.v, rec.w
+            elif isinstance(rec, ImuRecord):
+                topic, msg = imu_topic, Imu()
+                msg.header.frame_id = imu_frame
+                msg.orientation_covariance[0] = -1.0     # REP 145: no orientation estimate
+                msg.angular_velocity.z = rec.yaw_rate
+            elif isinstance(rec, TagRecord):
+                topic, msg = tags_topic, rec.msg
+            else:
+                raise TypeError(f"write_rosbag: no message for {type(rec).__name__}")
+            if not isinstance(rec, TagRecord):
+                msg.header.stamp = stamp
+            bag_t = rec.stamp_s if rec.stamp_s > bag_t else bag_t + 1e-6   # keeps the written order
+            bag.write(topic, msg, t=_ros_time(genpy, bag_t))
+            count += 1
+    return count
+
+
+def read_log(path: Union[str, Path], **topics) -> Union[CarmenReader, BagReader]:
+    """A reader for ``path``: a rosbag by its ``.bag`` suffix, else a CARMEN log."""
+    return BagReader(path, **topics) if Path(path).suffix == ".bag" else CarmenReader(path)
