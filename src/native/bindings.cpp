@@ -18,6 +18,7 @@ void register_planning(py::module_& m);   // planning.cpp
 void register_exploration(py::module_& m);  // exploration.cpp
 void register_lattice(py::module_& m);    // lattice.cpp
 void register_perception(py::module_& m);  // camera_coverage.cpp
+void register_slam(py::module_& m);  // scan_matcher.cpp
 
 namespace {
 
@@ -62,4 +63,5 @@ PYBIND11_MODULE(_native, m) {
   register_exploration(m);
   register_lattice(m);
   register_perception(m);
+  register_slam(m);
 }
