@@ -21,13 +21,15 @@ DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         explore WORLD=$(WORLD) headless; map, plots and report in OUTPUT=$(OUTPUT)"
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
+	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
+	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
@@ -107,6 +109,14 @@ bench-explore: build
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
 	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
 	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP))
+
+slam-log: build
+	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }
+	@$(ENV) python tools/slam_log.py --log $(LOG) --output $(OUTPUT) --robot $(ROBOT)
+
+slam-eval: setup
+	@[ -n "$(TRAJ)" ] && [ -n "$(GT)" ] || { echo "slam-eval: give TRAJ=FILE and GT=FILE (TUM)"; exit 2; }
+	@$(ENV) python tools/slam_eval.py --traj $(TRAJ) --gt $(GT) $(if $(RELATIONS),--relations $(RELATIONS)) $(if $(ALIGN),--align)
 
 worlds: build
 	$(ENV) python -m turtlebot_recon.sim.worldgen worlds

@@ -128,7 +128,8 @@ class Simulator:
         self._clearance = world.clearance()
         self.pose = np.array(world.start, dtype=float)   # true (x, y, yaw) in the world frame
         self.twist = (0.0, 0.0)                          # true body twist (m/s, rad/s)
-        self.gyro_rate = 0.0                             # IMU yaw rate: true rate + noise (rad/s)
+        self.gyro_rate = 0.0                             # IMU yaw rate: mean over its period + noise (rad/s)
+        self._gyro_turn = 0.0                            # true turn since the last IMU sample (rad)
         self.gyro_yaw = 0.0                              # IMU orientation, integrated gyro
         self.collisions = 0
         self._contact = False
@@ -310,10 +311,18 @@ class Simulator:
         self.twist = (forward / self.dt, turn / self.dt)
         self.distance_m += abs(forward)
         self.pose = moved
-        self.gyro_rate = self.twist[1] + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps)
-        self.gyro_yaw = wrap_angle(self.gyro_yaw + self.gyro_rate * self.dt)
+        # The IMU reports the mean rate over its sample period (a real gyro's filter and
+        # decimation), plus noise: integrating its samples gives the heading change up to the
+        # noise, as on a robot. The orientation integrates every step.
+        self._gyro_turn += turn
+        self.gyro_yaw = wrap_angle(self.gyro_yaw + turn + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps) * self.dt)
         self.steps += 1
-        return [name for name, period in self._periods.items() if self.steps % period == 0]
+        due = [name for name, period in self._periods.items() if self.steps % period == 0]
+        if "imu" in due:
+            period = self._periods["imu"] * self.dt
+            self.gyro_rate = self._gyro_turn / period + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps)
+            self._gyro_turn = 0.0
+        return due
 
     def _touch(self, hit, touching: bool) -> None:
         """Count contact episodes; turn contacts into Kobuki-style bumper press/release events.

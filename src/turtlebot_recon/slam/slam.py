@@ -1,0 +1,388 @@
+"""Graph SLAM (ROS-free): keyframes from odometry, scans matched in C++, poses optimised by
+GTSAM's iSAM2.
+
+One ``Slam`` object takes plain data: wheel-odometry poses (the odom frame) and IMU yaw rates as
+they come, scans as points in the base frame with the odometry pose at their stamp, tags as
+positions in the base frame. Every ``keyframe_distance_m`` or ``keyframe_angle_rad`` of odometry
+a scan becomes a keyframe, tied to the one before it by two factors:
+
+* wheel odometry, its heading fused with the gyro's integrated yaw rate (inverse-variance
+  weights; seed 000 names the IMU as its missing piece), with a covariance from the wheel-slip
+  model the simulator uses (variance per wheel grows with the distance it rolls);
+* the scan matched against the local submap (the last keyframes' points at their current
+  estimates), with the matcher's Hessian covariance; along a corridor's degenerate direction
+  the matcher inflates it, so odometry takes over there.
+
+Loop closures: past keyframes whose estimate lies within the current pose's uncertainty
+(3 sigma of its marginal, at least ``loop_radius_min_m``) are tried, nearest first; the scan is
+matched against a submap around the candidate with a wider window, accepted above a score, and
+added with a robust kernel (the graph's), so one wrong closure cannot wreck the map.
+
+The map frame is the odom frame as it was when the first scan came (the start pose):
+``map_to_odom`` is the identity until the first correction.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from ..config import positive, require
+from ..geometry import between, compose, inverse, wrap_angle
+from .graph import GraphSettings, PoseGraph
+from .scan_matching import MatcherSettings, ScanMatcher
+
+MAX_PLAUSIBLE_SPEED_MPS = 2.0     # odometry moving faster than this between scans jumped
+MAX_PLAUSIBLE_TURN_RADPS = 10.0   # (a teleport, a reset to zero when the base restarts)
+
+
+@dataclass(frozen=True)
+class SlamSettings:
+    """slam node parameters (config/slam.yaml). Units in the names."""
+    keyframe_distance_m: float = 0.25     # a new keyframe after this much travel ...
+    keyframe_angle_rad: float = 0.26      # ... or this much turning (15 degrees)
+    submap_keyframes: int = 12            # local submap: the last N keyframes' points
+    # odometry noise model: each wheel's travel error has std slip * sqrt(distance it rolled)
+    odom_slip_std_sqrt_m: float = 0.03    # m / sqrt(m)
+    odom_floor_std_m: float = 0.005       # m, added to x and y of every step
+    odom_floor_std_rad: float = 0.005     # rad, added to the heading of every step
+    use_imu: bool = True                  # fuse the gyro's yaw rate into each step's heading
+    gyro_noise_std_radps: float = 0.002   # per IMU sample (the robot YAML's figure)
+    gyro_bias_std_radps: float = 0.001    # unmodelled bias: adds (bias * step duration)^2
+    match_min_score: float = 0.5          # scan-match factors below this score are left out
+    match_gate_chi2: float = 16.3         # ... and those this far (Mahalanobis^2 over both
+                                          # covariances) from odometry's prediction: a corridor's
+                                          # repeated door frames can pull a match a frame's width
+                                          # along it with a confident covariance (99.9 %, 3 dof)
+    loop_every_keyframes: int = 2         # search for a loop closure every N keyframes
+    loop_min_gap_keyframes: int = 30      # candidates at least this many keyframes back
+    loop_radius_min_m: float = 1.0        # search radius floor (m) ...
+    loop_radius_max_m: float = 4.0        # ... and cap (m)
+    loop_submap_half_keyframes: int = 6   # candidate's submap: keyframes j-N .. j+N
+    loop_min_score: float = 0.65          # accept a closure at or above this match score
+    loop_max_candidates: int = 2          # matches tried per search
+    matcher: MatcherSettings = field(default_factory=MatcherSettings)
+    loop_matcher: MatcherSettings = field(default_factory=lambda: MatcherSettings(
+        search_xy_m=1.0, search_yaw_rad=0.5))
+    graph: GraphSettings = field(default_factory=GraphSettings)
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "keyframe_distance_m", "keyframe_angle_rad", "submap_keyframes", "match_gate_chi2",
+                 "odom_slip_std_sqrt_m", "odom_floor_std_m", "odom_floor_std_rad", "loop_every_keyframes",
+                 "loop_min_gap_keyframes", "loop_radius_min_m", "loop_radius_max_m",
+                 "loop_submap_half_keyframes", "loop_max_candidates")
+        require(self.loop_radius_min_m <= self.loop_radius_max_m, src, "loop_radius_min_m",
+                "must be <= loop_radius_max_m")
+        for key in ("match_min_score", "loop_min_score"):
+            require(0.0 <= getattr(self, key) <= 1.0, src, key, "must be in [0, 1]")
+        require(self.gyro_noise_std_radps >= 0 and self.gyro_bias_std_radps >= 0, src,
+                "gyro_noise_std_radps", "gyro noise figures must be >= 0")
+
+
+@dataclass
+class Keyframe:
+    stamp_s: float
+    odom: np.ndarray          # (3,) odometry pose at the scan (odom frame)
+    points: np.ndarray        # (n, 2) scan points in the base frame
+
+
+def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarray:
+    """The covariance of an odometry step ``delta`` (x, y, yaw in the first pose's frame) from
+    the wheel-slip model: each wheel's travel error has variance slip^2 * |its travel|, so
+    forward travel d and turn a give var(d) = (vl + vr) / 4, var(a) = (vl + vr) / B^2 and
+    cov(d, a) = (vr - vl) / (2B); the heading error then swings the end point sideways
+    (var(y) ~ d^2 var(a) / 3 for a heading error growing along the step). Floors are added."""
+    d = math.hypot(delta[0], delta[1])
+    a = float(delta[2])
+    half = 0.5 * separation_m * a
+    vl = s.odom_slip_std_sqrt_m ** 2 * abs(d - half)
+    vr = s.odom_slip_std_sqrt_m ** 2 * abs(d + half)
+    var_d = 0.25 * (vl + vr)
+    var_a = (vl + vr) / separation_m ** 2
+    cov_da = (vr - vl) / (2.0 * separation_m)
+    cov = np.array([[var_d, 0.0, cov_da],
+                    [0.0, d * d * var_a / 3.0, 0.5 * d * var_a],
+                    [cov_da, 0.5 * d * var_a, var_a]])
+    return cov + np.diag([s.odom_floor_std_m ** 2, s.odom_floor_std_m ** 2, s.odom_floor_std_rad ** 2])
+
+
+class Slam:
+    def __init__(self, settings: SlamSettings, wheel_separation_m: float):
+        self.s = settings
+        self.separation = wheel_separation_m
+        self.matcher = ScanMatcher(settings.matcher)
+        self.loop_matcher = ScanMatcher(settings.loop_matcher)
+        self.graph: Optional[PoseGraph] = None
+        self.keyframes: list[Keyframe] = []
+        self.estimates = np.zeros((0, 3))
+        self.gyro: list[tuple] = []             # (stamp, yaw rate) since the last keyframe
+        self.last_odom = None                   # (stamp, pose) of the last scan seen
+        self.odom_jumped = False
+        self.odom_jumped_step = False
+        self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
+                           loop_accepted=0, odom_jumps=0, resets=0, imu_fused=0)
+        self.update_ms: list[float] = []
+        self.match_ms: list[float] = []
+        self.events: list[str] = []             # one line per thing a caller should log once
+
+    # ------------------------------------------------------------------ inputs
+    def reset(self, why: str) -> None:
+        """Forget everything (time went backwards: a looping bag, a restarted simulation)."""
+        self.graph = None
+        self.keyframes.clear()
+        self.estimates = np.zeros((0, 3))
+        self.gyro.clear()
+        self.last_odom = None
+        self.counts["resets"] += 1
+        self.events.append(f"state cleared: {why}")
+
+    def add_imu(self, stamp_s: float, yaw_rate_radps: float) -> None:
+        if math.isfinite(yaw_rate_radps):
+            self.gyro.append((float(stamp_s), float(yaw_rate_radps)))
+
+    def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose) -> bool:
+        """A scan (points in the base frame, (n, 2)) with the odometry pose at its stamp.
+        Returns whether it became a keyframe (the graph was updated then)."""
+        odom = np.asarray(odom_pose, float)
+        if not np.isfinite(odom).all():
+            self.events.append(f"odometry pose not finite {odom.tolist()}: scan at {stamp_s:.2f} s skipped")
+            return False
+        jumped = self._odom_jumped(stamp_s, odom)
+        self.last_odom = (stamp_s, odom)
+        if self.graph is None:
+            # the map frame is the odom frame as it was at the start: the first keyframe sits at
+            # its odometry pose (map -> odom starts as the identity)
+            self.graph = PoseGraph(self.s.graph, first_pose=tuple(odom))
+            self._store(stamp_s, odom, points_base, odom.copy())
+            self._integrate_gyro(stamp_s, stamp_s)      # drop the samples before it
+            return True
+        last = self.keyframes[-1]
+        if jumped:
+            # Odometry can no longer be trusted between the last keyframe and now: rebase the
+            # last keyframe's odometry so that the robot is assumed where it was, and let the
+            # scan match find the motion.
+            self.counts["odom_jumps"] += 1
+            self.events.append(f"odometry jumped to ({odom[0]:.2f}, {odom[1]:.2f}, {odom[2]:.2f}) at "
+                               f"{stamp_s:.2f} s: the scan match alone ties the next keyframe")
+            last.odom = odom.copy()
+            self.odom_jumped = True
+        delta = between(last.odom, odom)
+        if math.hypot(delta[0], delta[1]) < self.s.keyframe_distance_m and abs(delta[2]) < self.s.keyframe_angle_rad \
+                and not self.odom_jumped:
+            return False
+        points_base = np.asarray(points_base, float).reshape(-1, 2)
+        self._keyframe(stamp_s, odom, points_base, delta)
+        return True
+
+    def add_tag(self, stamp_s: float, name: str, xy_base, covariance_xy) -> Optional[str]:
+        """A tag seen at ``xy_base`` (base frame at ``stamp_s``): tied to the last keyframe
+        through the odometry between them. Returns a reason if it was not used."""
+        if not self.keyframes or self.last_odom is None:
+            return "no keyframe yet"
+        last = self.keyframes[-1]
+        if stamp_s < last.stamp_s - 1.0:
+            return f"seen at {stamp_s:.2f} s, before the last keyframe ({last.stamp_s:.2f} s)"
+        # the base at the tag's stamp, relative to the last keyframe (odometry; the newest pose
+        # stands in for one at the stamp: tags come at camera rate, within a scan period)
+        rel = between(last.odom, self.last_odom[1])
+        xy = compose(rel, (float(xy_base[0]), float(xy_base[1]), 0.0))[:2]
+        return self.graph.add_landmark(name, len(self.keyframes) - 1, xy, np.asarray(covariance_xy, float))
+
+    # ------------------------------------------------------------------ outputs
+    def map_to_odom(self) -> np.ndarray:
+        """The map -> odom transform (x, y, yaw) implied by the newest keyframe."""
+        if not self.keyframes:
+            return np.zeros(3)
+        return compose(self.estimates[-1], inverse(self.keyframes[-1].odom))
+
+    def pose(self, odom_pose) -> np.ndarray:
+        """The map pose of the base given its odometry pose."""
+        return compose(self.map_to_odom(), odom_pose)
+
+    def stats(self) -> dict:
+        out = dict(self.counts)
+        for name, values in (("isam2_ms", self.update_ms), ("scan_match_ms", self.match_ms)):
+            if values:
+                v = np.asarray(values)
+                out[f"{name}_median"] = float(np.median(v))
+                out[f"{name}_p99"] = float(np.percentile(v, 99))
+                out[f"{name}_max"] = float(v.max())
+        tried = self.counts["loop_tried"]
+        out["loop_acceptance_rate"] = self.counts["loop_accepted"] / tried if tried else None
+        return out
+
+    def take_events(self) -> list:
+        events, self.events = self.events, []
+        return events
+
+    # ------------------------------------------------------------------ internals
+    def _odom_jumped(self, stamp_s: float, odom: np.ndarray) -> bool:
+        if self.last_odom is None:
+            return False
+        t0, p0 = self.last_odom
+        dt = max(stamp_s - t0, 1e-3)
+        d = between(p0, odom)
+        return math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
+            or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1
+
+    def _store(self, stamp_s, odom, points, estimate) -> None:
+        self.keyframes.append(Keyframe(float(stamp_s), odom.copy(), np.asarray(points, float).reshape(-1, 2)))
+        self.estimates = np.vstack([self.estimates, estimate])
+        self.counts["keyframes"] += 1
+
+    def _fused_step(self, stamp_s: float, delta: np.ndarray) -> tuple:
+        """The odometry step with the gyro's heading fused in, and its covariance."""
+        cov = odometry_covariance(delta, self.separation, self.s)
+        t0 = self.keyframes[-1].stamp_s
+        yaw_imu, covered, samples = self._integrate_gyro(t0, stamp_s)
+        if not self.s.use_imu or covered < 0.9 * (stamp_s - t0):
+            return delta, cov
+        span = stamp_s - t0
+        period = covered / max(1, samples)
+        # white noise per sample over span / period samples, plus a bias held over the span
+        var_imu = self.s.gyro_noise_std_radps ** 2 * period * span + (self.s.gyro_bias_std_radps * span) ** 2
+        var_odo = cov[2, 2]
+        gain = var_odo / (var_odo + var_imu) if var_odo + var_imu > 0 else 0.0
+        fused = delta.copy()
+        fused[2] = delta[2] + gain * wrap_angle(yaw_imu - delta[2])
+        # the heading's variance shrinks; its correlation with x, y shrinks in proportion
+        cov = cov.copy()
+        cov[2, :2] *= (1.0 - gain)
+        cov[:2, 2] *= (1.0 - gain)
+        cov[2, 2] = (1.0 - gain) * var_odo
+        self.counts["imu_fused"] += 1
+        return fused, cov
+
+    def _integrate_gyro(self, t0: float, t1: float) -> tuple:
+        """The heading change over (t0, t1] from the gyro, the time its samples covered and how
+        many samples contributed: each
+        sample is the mean rate over the interval since the one before it, so the integral is
+        exact however the samples fall against t0 and t1. Samples before t1 are dropped, but
+        the last one (it opens the next interval)."""
+        g = self.gyro
+        yaw = covered = 0.0
+        samples = 0
+        for (ta, _), (tb, w) in zip(g, g[1:]):
+            overlap = min(tb, t1) - max(ta, t0)
+            if overlap > 0.0:
+                yaw += w * overlap
+                covered += overlap
+                samples += 1
+        if g and samples and g[-1][0] < t1:
+            # the samples up to t1 are not all in yet (the IMU messages of the scan's own instant
+            # often come just after the scan): the last rate holds for the rest, three periods at most
+            tail = t1 - max(g[-1][0], t0)
+            if tail <= 3.0 * covered / samples:
+                yaw += g[-1][1] * tail
+                covered += tail
+        keep = max((i for i, (t, _) in enumerate(g) if t <= t1), default=0)
+        self.gyro = g[keep:]
+        return yaw, covered, samples
+
+    def _submap(self, lo: int, hi: int) -> np.ndarray:
+        """The points of keyframes lo..hi-1 in the map frame, at their current estimates."""
+        parts = [compose(self.estimates[i], np.column_stack([kf.points, np.zeros(len(kf.points))]))[:, :2]
+                 for i, kf in zip(range(lo, hi), self.keyframes[lo:hi]) if len(kf.points)]
+        return np.vstack(parts) if parts else np.zeros((0, 2))
+
+    def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> None:
+        prev = len(self.keyframes) - 1
+        step, cov = self._fused_step(stamp_s, delta)
+        factors = []
+        self.odom_jumped_step = self.odom_jumped
+        if self.odom_jumped:
+            self.odom_jumped = False
+            # no odometry across the jump: a loose tie keeps the graph connected
+            factors.append((prev, np.zeros(3), np.diag([1.0, 1.0, math.pi ** 2])))
+            guess = self.estimates[prev]
+        else:
+            factors.append((prev, step, cov))
+            guess = compose(self.estimates[prev], step)
+        reference = self._submap(max(0, prev + 1 - self.s.submap_keyframes), prev + 1)
+        t0 = time.perf_counter()
+        match = self.matcher.match(points, reference, guess) if len(points) else None
+        self.match_ms.append(1e3 * (time.perf_counter() - t0))
+        if match is not None and match.score >= self.s.match_min_score:
+            if self.odom_jumped_step or self._consistent(guess, cov, match):
+                factors.append((prev, between(self.estimates[prev], match.pose), match.covariance))
+                self.counts["matched"] += 1
+                self.counts["degenerate"] += int(match.degenerate)
+                guess = match.pose
+            else:
+                self.counts["match_inconsistent"] += 1
+        else:
+            self.counts["match_rejected"] += 1
+        key = self.graph.add_keyframe(guess, factors)
+        assert key == prev + 1, (key, prev)
+        self._store(stamp_s, odom, points, guess)
+        if key % self.s.loop_every_keyframes == 0:
+            self._close_loop(key)
+        self.update_ms.append(self.graph.update())
+        self.estimates = self.graph.poses()
+
+    def _consistent(self, predicted, step_cov: np.ndarray, match) -> bool:
+        """Whether the match agrees with odometry's prediction within match_gate_chi2 (both in
+        the new keyframe's body frame; the step's covariance is in the previous keyframe's,
+        turned by the step's small rotation: close enough for a gate)."""
+        v = between(predicted, match.pose)
+        S = step_cov + match.covariance
+        try:
+            d2 = float(v @ np.linalg.solve(S, v))
+        except np.linalg.LinAlgError:
+            return False
+        return d2 <= self.s.match_gate_chi2
+
+    def _close_loop(self, key: int) -> None:
+        first_candidate = key - self.s.loop_min_gap_keyframes
+        if first_candidate <= 0:
+            return
+        here = self.estimates[key]
+        try:
+            cov = self.graph.marginal(key - 1)[:2, :2]
+            sigma = math.sqrt(max(float(np.linalg.eigvalsh(cov).max()), 0.0))
+        except (RuntimeError, ValueError, np.linalg.LinAlgError):
+            sigma = 0.0
+        radius = min(self.s.loop_radius_max_m, max(self.s.loop_radius_min_m, 3.0 * sigma))
+        dist = np.hypot(*(self.estimates[:first_candidate, :2] - here[:2]).T)
+        order = [int(j) for j in np.argsort(dist) if dist[j] <= radius]
+        points = self.keyframes[key].points
+        tried = 0
+        for j in order:
+            if tried >= self.s.loop_max_candidates:
+                break
+            tried += 1
+            self.counts["loop_tried"] += 1
+            h = self.s.loop_submap_half_keyframes
+            reference = self._submap(max(0, j - h), min(first_candidate, j + h + 1))
+            match = self.loop_matcher.match(points, reference, here)
+            if match is None or match.degenerate or match.score < self.s.loop_min_score:
+                continue
+            if math.hypot(*(match.pose[:2] - here[:2])) > radius:
+                continue
+            self.graph.add_loop(j, key, between(self.estimates[j], match.pose), match.covariance)
+            self.counts["loop_accepted"] += 1
+            return
+
+
+@dataclass(frozen=True)
+class SlamNodeSettings:
+    """scripts/slam's parameters (config/slam.yaml)."""
+    map_frame: str = "map"
+    odom_frame: str = "odom"
+    base_frame: str = "base_footprint"
+    robot: str = "turtlebot3_waffle_pi"   # wheel separation for the odometry noise model
+    tf_rate_hz: float = 20.0              # map -> odom, from its own timer
+    transform_tolerance_s: float = 0.1    # map -> odom stamped this far ahead (slam_gmapping's)
+    tf_timeout_s: float = 0.1             # wait this long for odometry at a scan's stamp
+    output_dir: str = ""                  # ~save writes here ('' = $ROS_HOME/slam)
+    slam: SlamSettings = field(default_factory=SlamSettings)
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "tf_rate_hz", "tf_timeout_s")
+        require(self.transform_tolerance_s >= 0.0, src, "transform_tolerance_s", "must be >= 0")
+        require(len({self.map_frame, self.odom_frame, self.base_frame}) == 3, src, "map_frame",
+                "map_frame, odom_frame and base_frame must differ")
+

@@ -1,0 +1,151 @@
+"""SLAM core (slam/slam.py) on simulated drives with drifting odometry: keyframes, odometry +
+gyro + scan-match factors, loop closures, bad input."""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import room, write_world
+from turtlebot_recon.geometry import between, compose, wrap_angle
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.slam.scan_matching import scan_points
+from turtlebot_recon.slam.slam import Slam, SlamSettings, odometry_covariance
+
+LOOP = [(1.0, 1.0), (5.0, 1.0), (5.0, 4.0), (1.0, 4.0)]   # around the central block
+
+
+def loop_world(tmp_path):
+    """A 6 x 5 m room with a 2 x 1.4 m block in the middle and a few boxes along the walls,
+    so that every scan has corners to match."""
+    free = room(6.0, 5.0)
+    res = 0.05
+
+    def box(x0, y0, x1, y1):
+        free[int(y0 / res) + 2:int(y1 / res) + 2, int(x0 / res) + 2:int(x1 / res) + 2] = False
+    box(2.0, 1.8, 4.0, 3.2)
+    for x0, y0, x1, y1 in ((0.0, 2.2, 0.3, 2.6), (2.8, 0.0, 3.1, 0.3), (5.7, 2.9, 6.0, 3.4), (1.8, 4.7, 2.2, 5.0),
+                           (4.4, 4.6, 4.6, 5.0), (5.6, 0.6, 6.0, 0.8)):
+        box(x0, y0, x1, y1)
+    return write_world(tmp_path, "loop", free, start=[1.1, 1.1, 0.0])
+
+
+def drive(sim, waypoints, laps, slam=None, speed=0.2):
+    """Follow the waypoints (world frame) ``laps`` times with a simple pursuit; feed the SLAM
+    core scans, odometry and gyro. Returns (stamps, true poses in the start frame, odometry
+    poses) at every scan."""
+    lid = sim.robot.lidar
+    offset = (lid.x_m, lid.y_m, 0.0)
+    start = np.array(sim.pose)
+    out = ([], [], [])
+    targets = [np.array(w, float) for w in waypoints] * laps + [np.array(waypoints[0], float)]
+    i = 0
+    for _ in range(200000):
+        x, y, yaw = sim.pose
+        if math.hypot(*(targets[i] - (x, y))) < 0.15:
+            i += 1
+            if i == len(targets):
+                break
+        err = wrap_angle(math.atan2(targets[i][1] - y, targets[i][0] - x) - yaw)
+        v = speed * max(0.0, math.cos(err)) if abs(err) < 0.6 else 0.0
+        if sim.time_s < 0.5:     # standing still for the first scans, as a robot does at start-up
+            v, err = 0.0, 0.0
+        sim.set_command(v, float(np.clip(2.0 * err, -1.5, 1.5)))
+        due = sim.step()
+        odom = (sim.odom.x, sim.odom.y, sim.odom.yaw)
+        if slam is not None and "imu" in due:
+            slam.add_imu(sim.time_s, sim.gyro_rate)
+        if "scan" in due:
+            r = sim.scan()
+            pts = scan_points(r, lid.angle_min_rad, lid.angle_increment_rad, lid.range_min_m, lid.range_max_m)
+            base = compose(offset, np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
+            if slam is not None:
+                slam.add_scan(sim.time_s, base, odom)
+            out[0].append(sim.time_s)
+            out[1].append(between(start, sim.pose))
+            out[2].append(odom)
+    else:
+        raise AssertionError("the drive did not finish")
+    return np.array(out[0]), np.array(out[1]), np.array(out[2])
+
+
+def rmse(a, b):
+    return float(np.sqrt(np.mean(np.sum((np.asarray(a)[:, :2] - np.asarray(b)[:, :2]) ** 2, axis=1))))
+
+
+@pytest.fixture(scope="module")
+def two_laps(tmp_path_factory):
+    """Two laps round the block (~28 m) with the burger's odometry drifting 3x the default."""
+    from turtlebot_recon.sim import load_world
+    from turtlebot_recon.sim.simulator import SimSettings, Simulator
+    world = load_world(loop_world(tmp_path_factory.mktemp("slam")))
+    robot = load_robot("turtlebot3_burger")
+    sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.03, seed=4))
+    slam = Slam(SlamSettings(), robot.wheel_separation_m)
+    stamps, truth, odom = drive(sim, LOOP, laps=2, slam=slam)
+    sim.close()
+    return slam, stamps, truth, odom
+
+
+def test_slam_beats_drifting_odometry_and_closes_the_loop(two_laps):
+    slam, stamps, truth, odom = two_laps
+    kf_t = np.array([k.stamp_s for k in slam.keyframes])
+    idx = np.searchsorted(stamps, kf_t)
+    ate_slam = rmse(slam.estimates, truth[idx])
+    ate_odom = rmse(odom, truth)
+    st = slam.stats()
+    assert ate_odom > 0.15, ate_odom                      # the drift is real
+    assert ate_slam < 0.05, (ate_slam, st)
+    assert ate_odom / ate_slam > 5.0
+    assert st["loop_accepted"] >= 1, st
+    assert st["matched"] >= 0.9 * st["keyframes"] - 1
+    # keyframes every 0.25 m or 15 degrees of odometry
+    steps = [between(a.odom, b.odom) for a, b in zip(slam.keyframes, slam.keyframes[1:])]
+    assert all(math.hypot(s[0], s[1]) >= 0.249 or abs(s[2]) >= 0.259 for s in steps)
+    # map -> odom brings the last odometry pose onto the last estimate
+    np.testing.assert_allclose(slam.pose(slam.keyframes[-1].odom), slam.estimates[-1], atol=1e-9)
+
+
+def test_imu_fusion_improves_the_heading(tmp_path):
+    from turtlebot_recon.sim import load_world
+    from turtlebot_recon.sim.simulator import SimSettings, Simulator
+    world = load_world(loop_world(tmp_path))
+    robot = load_robot("turtlebot3_burger")
+    errors = {}
+    for use_imu in (False, True):
+        sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.05, seed=7))
+        slam = Slam(SlamSettings(use_imu=use_imu, loop_every_keyframes=10 ** 6), robot.wheel_separation_m)
+        slam.matcher.match = lambda *a, **k: None          # odometry (and gyro) alone
+        stamps, truth, _ = drive(sim, LOOP[:2], laps=1, slam=slam)
+        sim.close()
+        idx = np.searchsorted(stamps, [k.stamp_s for k in slam.keyframes])
+        errors[use_imu] = float(np.abs(wrap_angle(slam.estimates[:, 2] - truth[idx, 2])).max())
+    assert slam.counts["imu_fused"] > 5
+    assert errors[True] < 0.5 * errors[False], errors
+
+
+def test_odometry_covariance_follows_the_wheel_model():
+    s = SlamSettings(odom_floor_std_m=0.0, odom_floor_std_rad=0.0)
+    straight = odometry_covariance((1.0, 0.0, 0.0), 0.16, s)
+    assert straight[0, 0] == pytest.approx(0.5 * 0.03 ** 2)           # (vl + vr) / 4
+    assert straight[2, 2] == pytest.approx(2 * 0.03 ** 2 / 0.16 ** 2)  # (vl + vr) / B^2
+    turn = odometry_covariance((0.0, 0.0, 1.0), 0.16, s)
+    assert turn[0, 0] < straight[0, 0] and turn[2, 2] > 0
+    assert np.all(np.linalg.eigvalsh(odometry_covariance((0.3, 0.02, 0.2), 0.287, SlamSettings())) > 0)
+
+
+def test_bad_input_is_reported_not_fatal():
+    slam = Slam(SlamSettings(), 0.16)
+    pts = np.array([[1.0, y] for y in np.linspace(-1, 1, 50)] + [[x, 1.0] for x in np.linspace(0, 1, 30)])
+    assert slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))                   # the first keyframe
+    assert not slam.add_scan(0.2, pts, (float("nan"), 0.0, 0.0))
+    assert "not finite" in slam.take_events()[0]
+    assert not slam.add_scan(0.4, np.zeros((0, 2)), (0.05, 0.0, 0.0))   # no points, not far yet
+    assert slam.add_scan(0.6, np.zeros((0, 2)), (0.3, 0.0, 0.0))        # odometry alone
+    assert slam.counts["match_rejected"] == 1
+    # a teleport of the odometry (a base restart resets it to zero somewhere else)
+    assert slam.add_scan(0.8, pts, (-7.0, 3.0, 1.0))
+    assert slam.counts["odom_jumps"] == 1 and "jumped" in slam.take_events()[0]
+    assert np.isfinite(slam.estimates).all() and len(slam.estimates) == 3
+    slam.reset("time jumped back to 0.00 s")
+    assert not slam.keyframes and slam.graph is None and slam.counts["resets"] == 1
+    assert slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))
