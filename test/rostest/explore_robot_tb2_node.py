@@ -77,14 +77,15 @@ class ExploreRobotTB2(unittest.TestCase):
         publishers = dict((topic, set(nodes)) for topic, nodes in pubs)
         self.assertLessEqual({"/explorer", "/navigator"}, publishers.get(VELOCITY, set()))
         self.assertEqual(publishers.get("/cmd_vel", set()), set(), "nothing may command /cmd_vel on a TurtleBot 2")
-        self.assertTrue(self.maps and self.maps[-1].header.frame_id == "odom", "no /map in odom")
+        # SLAM runs by default on a robot: the map, and everything placed in it, is in "map"
+        self.assertTrue(self.maps and self.maps[-1].header.frame_id == "map", "no /map in map")
         # the mapper has the base's transform once scans land in the map
         self.wait(lambda: sum(v >= 0 for v in self.maps[-1].data) > 500, 10.0, "scans in /map")
 
         # 2. A kobuki-typed right bumper press reaches the explorer and the mapper.
         pub = rospy.Publisher(BUMPER, KobukiBumperEvent, queue_size=5)
         self.wait(lambda: pub.get_num_connections() >= 2, 10.0, f"the mapper and the explorer on {BUMPER}")
-        t = self.tf.lookup_transform("odom", "base_footprint", rospy.Time(0), rospy.Duration(2.0))
+        t = self.tf.lookup_transform("map", "base_footprint", rospy.Time(0), rospy.Duration(2.0))
         x, y = t.transform.translation.x, t.transform.translation.y
         q = t.transform.rotation
         yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
@@ -114,7 +115,7 @@ class ExploreRobotTB2(unittest.TestCase):
 
         # 3. The driven path: the reverse moved the base, in the map frame.
         self.wait(lambda: self.path is not None and len(self.path.poses) >= 2, 15.0, "/trajectory with 2 poses")
-        self.assertEqual(self.path.header.frame_id, "odom")
+        self.assertEqual(self.path.header.frame_id, "map")
 
 
 if __name__ == "__main__":
