@@ -158,45 +158,49 @@ def test_the_floor_under_the_robot_is_free_once_it_stands_there():
 
 def test_redraw_from_corrected_keyframes_makes_a_drifted_map_precise(tmp_path):
     """Scans inserted at drifting poses smear the room; once SLAM's corrected keyframe poses
-    arrive (base poses, scans claimed by stamp), the redrawn map is as precise as one drawn at
-    the true poses, and a second identical set of poses needs no redraw."""
+    arrive (every fourth scan a keyframe), every kept scan is drawn again at its keyframe's
+    corrected pose composed with the odometry since: the redrawn map holds the same occupied
+    cells as one drawn at the true poses, and the same poses again need no redraw."""
     world = load_world(write_world(tmp_path, "r", room(4.0, 3.0), start=[1.0, 1.0, 0.0]))
     sim = Simulator(world, load_robot("turtlebot3_burger"), SimSettings(camera_rate_hz=0.0, seed=2))
     lid = sim.robot.lidar
     offset = (lid.x_m, lid.y_m, 0.0)
-    core = Mapper(MapperSettings(), robot_radius_m=0.105)
-    true_poses, stamps = [], []
-    for k in range(16):
-        true = (0.15 * k, 0.08 * k, 0.3 * k)              # map frame = start pose
+    core = Mapper(MapperSettings(map_frame="map"), robot_radius_m=0.105)
+    reference = Mapper(MapperSettings(), robot_radius_m=0.105)      # drawn at the true poses
+    truth, odom, stamps = [], [], []
+    for k in range(24):
+        true = (0.1 * k, 0.05 * k, 0.2 * k)               # map frame = start pose
         sim.set_pose(1.0 + true[0], 1.0 + true[1], true[2])
-        drift = (0.02 * k, -0.015 * k, 0.02 * k)          # odometry's error grows
-        seen = compose(true, drift)
-        core.insert(Scan(sim.scan(), lid.angle_min_rad, lid.angle_max_rad, lid.angle_increment_rad,
-                         lid.range_min_m, lid.range_max_m, 10.0 + k), tuple(compose(seen, offset)))
-        true_poses.append(true)
+        drifted = compose(true, (0.02 * k, -0.015 * k, 0.02 * k))   # odometry's error grows
+        scan = Scan(sim.scan(), lid.angle_min_rad, lid.angle_max_rad, lid.angle_increment_rad,
+                    lid.range_min_m, lid.range_max_m, 10.0 + k)
+        core.insert(scan, tuple(compose(drifted, offset)), tuple(drifted), offset)
+        reference.insert(scan, tuple(compose(true, offset)))
+        truth.append(true)
+        odom.append(drifted)
         stamps.append(10.0 + k)
     sim.close()
 
-    reference = Mapper(MapperSettings(), robot_radius_m=0.105)      # drawn at the true poses
-    for k, p in enumerate(true_poses):
-        reference.insert(core.recent[k][0], tuple(compose(p, offset)))
-
-    def occupied(grid):   # the occupied cells' centres, map frame (grids may differ in extent)
+    def occupied(grid):   # the occupied cells, in cells of the map frame (extents may differ)
         rows, cols = np.nonzero(grid.occupancy() >= 65)
         return {(round(grid.origin_x / 0.05) + c, round(grid.origin_y / 0.05) + r) for r, c in zip(rows, cols)}
 
-    truth = occupied(reference.grid)
-    assert len(occupied(core.grid) ^ truth) > 0.5 * len(truth)     # the drift smeared the walls
-    # SLAM first reported the keyframes where odometry put them: drawn already, nothing to do
-    assert not core.needs_redraw(stamps, [compose(p, (0.02 * k, -0.015 * k, 0.02 * k))
-                                          for k, p in enumerate(true_poses)])
-    # then corrected them
-    assert core.needs_redraw(stamps, true_poses)
-    grid = core.redraw(stamps, true_poses, offset)
-    core.swap(grid, since_stamp_s=stamps[-1])
+    expected = occupied(reference.grid)
+    assert len(occupied(core.grid) ^ expected) > 0.5 * len(expected)     # the drift smeared the walls
+    kf = list(range(0, 24, 4))
+    # SLAM first reports the keyframes where odometry put them: drawn already, nothing to do
+    assert not core.needs_redraw([stamps[k] for k in kf], [odom[k] for k in kf])
+    # then corrects them; between keyframes the odometry's own drift remains (as in SLAM's
+    # map -> odom), so the scans there move with their keyframe
+    assert core.needs_redraw([stamps[k] for k in kf], [truth[k] for k in kf])
+    grid, drawn = core.redraw([stamps[k] for k in kf], [truth[k] for k in kf])
+    assert drawn == 24
+    core.swap(grid, drawn)
     assert core.grid is grid and core.rerenders == 1
-    assert occupied(core.grid) == truth
     p = map_precision(grid.occupancy(), grid.resolution, (grid.origin_x, grid.origin_y), world, world.start)
-    assert p["map_precision_occupied"] >= 0.98 and p["map_precision_free"] >= 0.98
-    assert not core.needs_redraw(stamps, true_poses)
-    assert "redrawn 1 times from 16 keyframes" in core.diagnostics()
+    assert p["map_precision_occupied"] >= 0.95 and p["map_precision_free"] >= 0.95
+    assert not core.needs_redraw([stamps[k] for k in kf], [truth[k] for k in kf])
+    assert "redrawn 1 times along 6 keyframes" in core.diagnostics()
+    # every scan a keyframe at its true pose: exactly the reference's walls
+    grid, _ = core.redraw(stamps, truth)
+    assert occupied(grid) == expected

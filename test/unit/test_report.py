@@ -11,6 +11,7 @@ import pytest
 from turtlebot_recon.evaluation import (CoverageTracker, plot_coverage, plot_map, reachable_free_space,
                                         write_report)
 from turtlebot_recon.evaluation import report as report_module
+from turtlebot_recon.evaluation.trajectory_metrics import read_tum
 from turtlebot_recon.evaluation.evaluator import (RUN_FILES, EvaluatorSettings, FinalMap, RunLog, run_report,
                                                   summary_line, write_run)
 from turtlebot_recon.evaluation.report import REPORT_KEYS, full_report, map_figure_size_px, markdown
@@ -274,6 +275,8 @@ def check_run_file(path):
         text = open(path).read()
         assert text.endswith("(null in report.json).\n"), name
         return len(text)
+    if name.endswith(".tum"):
+        return read_tum(path).shape
     return json.loads(open(path).read())
 
 
@@ -296,6 +299,7 @@ def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypat
     assert at_replace == {
         "coverage.csv": ("sim_time_s,coverage", (2, 2)),
         "path.csv": ("sim_time_s,x_m,y_m", (3, 3)),
+        "ground_truth.tum": (5, 4),                  # every truth sample, not one per path_step_m
         "coverage.png": (450, 800, 3),
         "map.png": (*map_figure_size_px(final.occupancy.shape)[::-1], 3),
         "report.md": len(markdown(report)),
@@ -306,7 +310,8 @@ def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypat
     # No final map and no coverage sample: no map.png, no coverage.png; report.json still last.
     empty = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
     write_run(tmp_path / "bare", report, empty, RunLog(START, 0.02))
-    assert sorted(os.listdir(tmp_path / "bare")) == ["coverage.csv", "path.csv", "report.json", "report.md"]
+    assert sorted(os.listdir(tmp_path / "bare")) == ["coverage.csv", "ground_truth.tum", "path.csv", "report.json",
+                                                     "report.md"]
 
 
 def test_tag_metrics_match_by_marker_set_and_id_and_count_false_tags():

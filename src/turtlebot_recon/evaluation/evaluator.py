@@ -21,12 +21,13 @@ from ..config import positive, require
 from ..robot import RobotSpec
 from ..sim.world import World
 from .coverage import CoverageTracker, world_to_map
+from .trajectory_metrics import write_tum
 from .metrics import distance_until, map_precision, tag_metrics
 from .report import plot_coverage, plot_map, write_report
 
 # The files of a run directory that write_run writes; the mapper saves map.pgm / map.yaml there
 # before. report.json comes last: the directory is complete once it exists.
-RUN_FILES = ("coverage.csv", "path.csv", "coverage.png", "map.png", "report.md", "report.json")
+RUN_FILES = ("coverage.csv", "path.csv", "ground_truth.tum", "coverage.png", "map.png", "report.md", "report.json")
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,7 @@ class RunLog:
         self.t0_s: Optional[float] = None      # the explorer's start: zero of the report's clock
         self.first_truth_s: Optional[float] = None
         self.path: list = []                   # (t s, x m, y m) world, a point every path_step_m
+        self.poses: list = []                  # (t s, x m, y m, yaw rad) world, every sample
         self.distance_m = 0.0                  # along every ground-truth sample, not only path's
         self.last_xy: Optional[tuple] = None   # the latest true position (world, m)
         self.ate_sq_m2: list = []              # squared position errors, one per ATE sample
@@ -94,8 +96,9 @@ class RunLog:
         """Sim time ``t_s`` on the report's clock (s since the explorer's start, or since 0)."""
         return t_s - (self.t0_s or 0.0)
 
-    def truth(self, t_s: float, x: float, y: float) -> None:
-        """A ground-truth position (world, m) at sim time ``t_s``."""
+    def truth(self, t_s: float, x: float, y: float, yaw: float = 0.0) -> None:
+        """A ground-truth pose (world, m, rad) at sim time ``t_s``."""
+        self.poses.append((float(t_s), float(x), float(y), float(yaw)))
         if self.first_truth_s is None:
             self.first_truth_s = t_s
         if self.last_xy is not None:
@@ -137,6 +140,13 @@ class RunLog:
     def ate_m(self) -> Optional[float]:
         """The RMSE of the ATE samples (m); None without one."""
         return math.sqrt(float(np.mean(self.ate_sq_m2))) if self.ate_sq_m2 else None
+
+    def poses_in_map(self) -> np.ndarray:
+        """(n, 4): every ground-truth sample as (absolute sim time s, x, y, yaw) in the map
+        frame: ground_truth.tum, to score SLAM's trajectory.tum with ``make slam-eval``."""
+        p = np.asarray(self.poses, float).reshape(-1, 4)
+        return np.column_stack([p[:, 0], world_to_map(p[:, 1:3], self.start),
+                                np.arctan2(np.sin(p[:, 3] - self.start[2]), np.cos(p[:, 3] - self.start[2]))])
 
     def path_in_map(self) -> np.ndarray:
         """(n, 3) float: the true path as path.csv holds it, sim time on the report's clock (s,
@@ -218,7 +228,8 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
               final_map: Optional[FinalMap] = None, tags: Optional[list] = None,
               world: Optional[World] = None) -> Path:
     """Write the run directory ``out_dir``: coverage.csv (sim_time_s, coverage), path.csv
-    (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), coverage.png (if sampled), map.png (with a
+    (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), ground_truth.tum (``RunLog.poses_in_map``),
+    coverage.png (if sampled), map.png (with a
     final map), report.md and, last and atomically, report.json; return report.json's path.
     ``tags``: the confirmed tags as run_report's (None: no tag tracker, no tags on map.png);
     with them and ``world``, map.png shows the world's tags too, each estimate joined to its
@@ -234,6 +245,7 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
     path = log.path_in_map()
     np.savetxt(out / "path.csv", path, fmt=("%.2f", "%.3f", "%.3f"), delimiter=",",
                header="sim_time_s,x_m,y_m", comments="")
+    write_tum(out / "ground_truth.tum", log.poses_in_map())
     if t.size:
         plot_coverage(out / "coverage.png", coverage, title=title(report))
     if final_map is not None:

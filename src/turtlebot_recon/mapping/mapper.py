@@ -7,18 +7,23 @@ so one diagnostics line says what was ignored and why.
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..config import positive, require
-from ..geometry import between, compose, wrap_angle
+from ..geometry import between, compose
 from .grid import GridSettings, make_grid
 
 # Kobuki bumpers (kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2): body angle of each centre.
 BUMPER_ANGLE_RAD = {0: math.pi / 3, 1: 0.0, 2: -math.pi / 3}
 TIME_JUMP_BACK_S = 1.0   # the clock going back this far means a restarted simulation or bag
+
+
+def _key(stamp_s: float) -> int:
+    """A scan's stamp as a dictionary key (microseconds: the same stamp from two messages)."""
+    return round(float(stamp_s) * 1e6)
 
 
 @dataclass(frozen=True)
@@ -35,12 +40,11 @@ class MapperSettings:
     # scans at their optimised poses once any of them has moved this far since the last drawing
     rerender_shift_m: float = 0.05       # m (one cell)
     rerender_shift_rad: float = 0.02     # rad (~1 degree: 7 cm at the lidar's 3.5 m)
-    scan_memory_s: float = 30.0          # scans kept this long for a keyframe to claim
+    odom_frame: str = "odom"             # with SLAM, scans are kept with their odometry pose
     grid: GridSettings = field(default_factory=GridSettings)
 
     def validate(self, src: str) -> None:
-        positive(src, self, "publish_rate_hz", "tf_timeout_s", "rerender_shift_m", "rerender_shift_rad",
-                 "scan_memory_s")
+        positive(src, self, "publish_rate_hz", "tf_timeout_s", "rerender_shift_m", "rerender_shift_rad")
         require(self.map_frame != self.base_frame, src, "map_frame", "must differ from base_frame")
 
 
@@ -69,10 +73,12 @@ class Mapper:
         self.beams = Counter()       # beams by class (valid, no_return, capped, too_close, nan)
         self.scans = 0
         self.last_clock_s = -math.inf
-        self.recent = deque()        # (scan, sensor pose) of the last scan_memory_s, oldest first
-        self.keyframe_scans = {}     # stamp key -> Scan, the scans SLAM made keyframes of
-        self.drawn = {}              # stamp key -> base pose the keyframe was last drawn at
-        self.bumps = []              # (side, base pose): re-marked on every drawing
+        # With SLAM: every inserted scan with its base's odometry pose, so that the map can be
+        # drawn again after a correction, each scan moved with the keyframe before it
+        self.history = []            # (stamp, base odom pose, sensor offset, Scan, sensor map pose)
+        self.history_index = {}      # stamp key -> index in history
+        self.drawn = {}              # keyframe stamp key -> map pose it was last drawn at (None: no scan)
+        self.bumps = []              # (side, base pose in the map, base odom pose or None)
         self.rerenders = 0
 
     def check_scan(self, scan: Scan) -> str | None:
@@ -102,103 +108,115 @@ class Mapper:
         self.last_clock_s = now_s
         if jumped:
             self.skipped["time_jump_back"] += 1
+            self.history.clear()         # a new run: its keyframes are not these
+            self.history_index.clear()
+            self.drawn.clear()
         return jumped
 
-    def insert(self, scan: Scan, sensor_pose: tuple) -> None:
-        """Insert a checked scan taken from ``sensor_pose`` = (x, y, yaw) in the map frame."""
+    def insert(self, scan: Scan, sensor_pose: tuple, base_odom: tuple | None = None,
+               sensor_offset: tuple | None = None) -> None:
+        """Insert a checked scan taken from ``sensor_pose`` = (x, y, yaw) in the map frame. With
+        SLAM, ``base_odom`` (the base's odometry pose at the scan) and ``sensor_offset`` (the
+        lidar in the base frame) keep it for a later redraw."""
+        self._insert(self.grid, scan, sensor_pose)
+        self.scans += 1
+        if base_odom is not None:
+            self.history_index[_key(scan.stamp_s)] = len(self.history)
+            self.history.append((scan.stamp_s, tuple(base_odom), tuple(sensor_offset or (0.0, 0.0, 0.0)), scan,
+                                 tuple(sensor_pose)))
+
+    def _insert(self, grid, scan: Scan, sensor_pose: tuple) -> None:
         g = self.settings.grid
-        stats = self.grid.insert_scan(
+        stats = grid.insert_scan(
             sensor_pose[0], sensor_pose[1], sensor_pose[2], np.asarray(scan.ranges, np.float32),
             scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max,
             no_return_clear_m=g.no_return_clear_m, range_cap_m=g.range_cap_m)
         for key in ("valid", "no_return", "capped", "too_close", "nan"):
             if getattr(stats, key):
                 self.beams[key] += getattr(stats, key)
-        self.scans += 1
-        self.recent.append((scan, tuple(sensor_pose)))
-        while self.recent and self.recent[0][0].stamp_s < scan.stamp_s - self.settings.scan_memory_s:
-            self.recent.popleft()
 
     # ------------------------------------------------------------- SLAM keyframes
     def needs_redraw(self, stamps, base_poses) -> bool:
-        """Whether SLAM's keyframes (scan stamps, optimised base poses in the map frame) moved
-        far enough from where the map last drew them to draw it again. Keyframes new to the
-        mapper claim their scans from the recent ones (a keyframe whose scan is gone, or was
-        never inserted, is left out and counted)."""
+        """Whether SLAM's keyframes (their scans' stamps, optimised base poses in the map frame)
+        moved far enough from where the map last drew them to draw it again. A keyframe new to
+        the mapper was drawn already (at nearly that pose); one whose scan the mapper never
+        inserted is counted and left out."""
         moved = False
         for stamp, pose in zip(stamps, np.asarray(base_poses, float).reshape(-1, 3)):
-            key = round(float(stamp) * 1e6)
-            if key not in self.keyframe_scans:
-                scan = next((sc for sc, _ in reversed(self.recent) if round(sc.stamp_s * 1e6) == key), None)
-                if scan is None:
-                    if key not in self.drawn:
-                        self.skipped["keyframe_scan_missing"] += 1
-                        self.drawn[key] = None
-                    continue
-                self.keyframe_scans[key] = scan
-            old = self.drawn.get(key)
+            key = _key(stamp)
+            if key not in self.drawn:
+                if key not in self.history_index:
+                    self.skipped["keyframe_scan_missing"] += 1
+                self.drawn[key] = tuple(pose) if key in self.history_index else None
+                continue
+            old = self.drawn[key]
             if old is None:
-                self.drawn[key] = tuple(pose)
-                continue   # drawn already, incrementally, at (nearly) this pose
+                continue
             d = between(old, pose)
             if math.hypot(d[0], d[1]) > self.settings.rerender_shift_m or abs(d[2]) > self.settings.rerender_shift_rad:
                 moved = True
         return moved
 
-    def redraw(self, stamps, base_poses, sensor_offset: tuple):
-        """A new grid drawn from the keyframes' scans at ``base_poses`` ⊕ ``sensor_offset`` (the
-        lidar in the base frame), with the robot's track (visits, the floor under the body) and
-        the bumper presses. Built apart from the live grid, so the map keeps being published
-        meanwhile; ``swap`` installs it."""
+    def redraw(self, stamps, base_poses):
+        """A new grid drawn from every kept scan, each at its keyframe's corrected pose composed
+        with the odometry from that keyframe to the scan (SLAM's own map -> odom, piece by
+        piece), with the robot's track (visits, the floor under the body) and the bumper
+        presses moved the same way. Built beside the live grid, so the map keeps being published
+        meanwhile; ``swap`` installs it. Returns (grid, how many history scans it holds)."""
         g = self.settings.grid
-        grid = make_grid(g)
+        keys = [_key(t) for t in stamps]
         poses = np.asarray(base_poses, float).reshape(-1, 3)
-        keys = [round(float(t) * 1e6) for t in stamps]
-        have = [i for i, k in enumerate(keys) if k in self.keyframe_scans]
+        kf = sorted((self.history_index[k], i) for i, k in enumerate(keys) if k in self.history_index)
+        n = len(self.history)
+        grid = make_grid(g)
+        if not kf:
+            return grid, 0
+        kf_stamp = np.array([self.history[h][0] for h, _ in kf])
+        kf_odom = np.array([self.history[h][1] for h, _ in kf])
+        kf_map = poses[[i for _, i in kf]]
+        hist = self.history[:n]
+        t = np.array([h[0] for h in hist])
+        j = np.clip(np.searchsorted(kf_stamp, t, side="right") - 1, 0, len(kf) - 1)
+        base = compose(kf_map[j], between(kf_odom[j], np.array([h[1] for h in hist])))
+        sensor = compose(base, np.array([h[2] for h in hist]))
         groups = {}   # one insert_scans call per beam layout (one lidar: one group)
-        for i in have:
-            sc = self.keyframe_scans[keys[i]]
-            layout = (len(sc.ranges), sc.angle_min, sc.angle_increment, sc.range_min, sc.range_max)
-            groups.setdefault(layout, []).append(i)
-        for (n, amin, inc, rmin, rmax), idx in groups.items():
-            sensor = compose(poses[idx], sensor_offset)
-            ranges = np.stack([np.asarray(self.keyframe_scans[keys[i]].ranges, np.float32) for i in idx])
-            grid.insert_scans(sensor, ranges, amin, inc, rmin, rmax,
-                              no_return_clear_m=g.no_return_clear_m, range_cap_m=g.range_cap_m)
-        for i in range(len(poses)):
-            # the track, every half cell between consecutive keyframes: visits and the floor
-            a, b = poses[max(i - 1, 0)], poses[i]
-            steps = max(1, int(math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (0.5 * g.resolution))))
-            for f in np.linspace(0.0, 1.0, steps + 1)[1:]:
-                p = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * wrap_angle(b[2] - a[2]))
-                grid.add_visit(p[0], p[1], g.visit_min_speed_mps, g.visit_min_speed_mps)
-                self._free_body(grid, p)
-        for side, pose in self.bumps:
+        for i, h in enumerate(hist):
+            sc = h[3]
+            groups.setdefault((len(sc.ranges), sc.angle_min, sc.angle_increment, sc.range_min, sc.range_max),
+                              []).append(i)
+        for (_, amin, inc, rmin, rmax), idx in groups.items():
+            grid.insert_scans(sensor[idx], np.stack([np.asarray(hist[i][3].ranges, np.float32) for i in idx]),
+                              amin, inc, rmin, rmax, no_return_clear_m=g.no_return_clear_m,
+                              range_cap_m=g.range_cap_m)
+        for p in base:   # the track: a scan every ~5 cm of driving at 5 Hz
+            grid.add_visit(p[0], p[1], g.visit_min_speed_mps, g.visit_min_speed_mps)
+            self._free_body(grid, p)
+        for side, pose, odom in self.bumps:
+            if odom is not None:
+                k = int(np.argmin(np.hypot(*(kf_odom[:, :2] - np.asarray(odom)[:2]).T)))
+                pose = compose(kf_map[k], between(kf_odom[k], odom))
             grid.mark_bumper(pose[0], pose[1], pose[2], BUMPER_ANGLE_RAD[side], self.robot_radius_m, g.bumper_cells)
-        self.drawn.update({keys[i]: tuple(poses[i]) for i in have})
-        return grid
+        self.drawn.update({keys[i]: tuple(poses[i]) for _, i in kf})
+        return grid, n
 
-    def swap(self, grid, since_stamp_s: float) -> None:
-        """Make ``grid`` (from ``redraw``) the live one; the scans inserted after
-        ``since_stamp_s`` (while it was drawn) go into it too."""
+    def swap(self, grid, drawn_scans: int) -> None:
+        """Make ``grid`` (from ``redraw``) the live one; the scans inserted while it was drawn
+        (history beyond ``drawn_scans``) go into it too, where they were inserted."""
         old, self.grid = self.grid, grid
         self.rerenders += 1
-        g = self.settings.grid
-        for scan, pose in self.recent:
-            if scan.stamp_s > since_stamp_s:
-                self.grid.insert_scan(pose[0], pose[1], pose[2], np.asarray(scan.ranges, np.float32),
-                                      scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max,
-                                      no_return_clear_m=g.no_return_clear_m, range_cap_m=g.range_cap_m)
+        for h in self.history[drawn_scans:]:
+            self._insert(self.grid, h[3], h[4])
         del old
 
-    def bumper(self, side: int, base_pose: tuple) -> None:
-        """A bumper press at ``base_pose``: mark the cells along that bumper occupied."""
+    def bumper(self, side: int, base_pose: tuple, base_odom: tuple | None = None) -> None:
+        """A bumper press at ``base_pose``: mark the cells along that bumper occupied. With SLAM,
+        ``base_odom`` lets a redraw move the mark with the map."""
         if side not in BUMPER_ANGLE_RAD:
             self.skipped["bad_bumper"] += 1
             return
         self.grid.mark_bumper(base_pose[0], base_pose[1], base_pose[2], BUMPER_ANGLE_RAD[side],
                               self.robot_radius_m, self.settings.grid.bumper_cells)
-        self.bumps.append((side, tuple(base_pose)))
+        self.bumps.append((side, tuple(base_pose), None if base_odom is None else tuple(base_odom)))
 
     def motion(self, base_pose: tuple, speed_mps: float) -> None:
         self.grid.add_visit(base_pose[0], base_pose[1], abs(speed_mps), self.settings.grid.visit_min_speed_mps)
@@ -215,7 +233,7 @@ class Mapper:
     def diagnostics(self) -> str:
         beams = ", ".join(f"{k} {v}" for k, v in sorted(self.beams.items()) if v)
         skipped = ", ".join(f"{k} {v}" for k, v in sorted(self.skipped.items())) or "none"
-        redrawn = f"; redrawn {self.rerenders} times from {len(self.keyframe_scans)} keyframes" \
-            if self.keyframe_scans else ""
+        kept = sum(v is not None for v in self.drawn.values())
+        redrawn = f"; redrawn {self.rerenders} times along {kept} keyframes" if self.drawn else ""
         return (f"{self.scans} scans inserted ({beams}); skipped: {skipped}; "
                 f"grid {self.grid.cols}x{self.grid.rows} cells{redrawn}")

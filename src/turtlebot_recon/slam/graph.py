@@ -61,12 +61,14 @@ class GraphSettings:
     relinearize_threshold_m: float = 0.05     # iSAM2 relinearises a variable whose delta
     relinearize_threshold_rad: float = 0.005  # exceeds these (x, y; yaw). Yaw gets its own,
                                          # smaller one: a yaw left linearised 0.01 rad off bends
-                                         # a chain by 0.1 m at 10 m. GTSAM's City10000 example's
-                                         # 0.01 for all (1 step in 1) gave an 11 ms median step on
-                                         # city10000; these give ~2 ms and stay within 5 cm of
-                                         # batch LM on its first 2,000 and 4,000 steps
+                                         # a chain by 0.1 m at 10 m (0.05 for all left city10000's
+                                         # first 2,000 steps 0.24 m off batch LM; these, 4 cm).
+                                         # GTSAM's City10000 example's 0.01 for all, every step,
+                                         # gave an 11 ms median step there; these ~2 ms
     relinearize_skip: int = 10           # updates between relinearisations (GTSAM's default):
-                                         # nine steps in ten only add and re-eliminate
+                                         # nine steps in ten only add and re-eliminate; only the
+                                         # top of the Bayes tree is checked (partial check), which
+                                         # cut city10000's 99th percentile step by about a third
     landmark_gate_chi2: float = 30.0     # Mahalanobis² of a sighting against the estimate
                                          # (sighting noise + the estimate's marginals) above which
                                          # it is refused: a correct one exceeds it with
@@ -133,6 +135,7 @@ class PoseGraph:
             thresholds.insert((letter, np.array(vector)))
         params.setRelinearizeThreshold(thresholds)
         params.relinearizeSkip = self.s.relinearize_skip
+        params.enablePartialRelinearizationCheck = True
         self._isam = gtsam.ISAM2(params)
         self._graph = gtsam.NonlinearFactorGraph()   # every factor handed to iSAM2
         self._guesses = gtsam.Values()               # the initial value of every variable in it

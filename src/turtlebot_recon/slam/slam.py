@@ -238,8 +238,8 @@ class Slam:
         cov = odometry_covariance(delta, self.separation, self.s)
         t0 = self.keyframes[-1].stamp_s
         yaw_imu, covered, samples = self._integrate_gyro(t0, stamp_s)
-        if not self.s.use_imu or covered < 0.9 * (stamp_s - t0):
-            return delta, cov
+        if not self.s.use_imu or covered < (stamp_s - t0) - 1e-6:
+            return delta, cov        # a gap in the gyro's samples: wheel odometry alone
         span = stamp_s - t0
         period = covered / max(1, samples)
         # white noise per sample over span / period samples, plus a bias held over the span
