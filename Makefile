@@ -30,6 +30,8 @@ help:
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
+	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM -> output/bench/slam.json"
+	@echo "                 (LIVE=0 offline parts only, SEEDS=N, RESUME=1, DRIVE_S=sim s per recorded drive)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
@@ -97,6 +99,12 @@ bench-map: build
 bench-tags: build
 	@$(ENV) python test/benchmarks/bench_tags.py $(if $(QUICK),--quick) $(if $(WORLDS),--worlds $(WORLDS)) \
 	  $(if $(SEEDS),--seeds $(SEEDS)) $(if $(RESUME),--resume)
+
+# Recorded drives at four drifts (offline SLAM vs odometry), city10000, then the full
+# explorations with and without SLAM at the default drift (LIVE=0: the offline parts only).
+bench-slam: build
+	@$(ENV) python test/benchmarks/bench_slam.py $(if $(filter 0,$(LIVE)),,--live) $(if $(SEEDS),--seeds $(SEEDS)) \
+	  $(if $(RESUME),--resume) $(if $(DRIVE_S),--drive-s $(DRIVE_S))
 
 # The bench's own defaults (all six strategies and the oracle, the shipped, real and held-out
 # worlds, 3 seeds, half the cores, waffle_pi but the burger in the maze, garden and doors,

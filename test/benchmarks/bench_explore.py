@@ -195,7 +195,8 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     cmd = [str(TOP / "tools" / "launch"), "--tag", f"{world}/{strategy}/seed{seed}", "--done", "evaluator",
            "--report", str(run_dir / "report.json"), "explore_sim.launch", f"world:={args.world_args[world]}",
            f"robot:={args.robot_of[world]}", f"strategy:={strategy}", f"mission:={args.mission}", f"seed:={seed}", f"budget:={budget:g}", "rtf:=0",
-           f"stop_coverage:={stop_coverage(strategy):g}", f"output:={run_dir}", "end_with_evaluator:=false"]
+           f"stop_coverage:={stop_coverage(strategy):g}", f"output:={run_dir}", "end_with_evaluator:=false",
+           *args.launch_args.split()]
     limit_s = args.startup_s + budget / args.min_rtf
     t0 = time.monotonic()
     with open(run_dir / "launch.log", "wb") as log:
@@ -324,6 +325,8 @@ def main(argv=None):
     p.add_argument("--mission", default="map", choices=("map", "tags"),
                    help="map: lidar coverage (the exploration figures) | tags: then the tag search "
                         "with the camera (make bench-tags)")
+    p.add_argument("--launch-args", default="", help="more explore_sim.launch arguments for every run, e.g. "
+                   "'slam:=true odom_slip:=0.01'")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
     p.add_argument("--dry-run", action="store_true", help="print the plan, budgets and wall limits; run nothing")
     p.add_argument("--report", action="store_true",

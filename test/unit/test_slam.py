@@ -149,3 +149,20 @@ def test_bad_input_is_reported_not_fatal():
     slam.reset("time jumped back to 0.00 s")
     assert not slam.keyframes and slam.graph is None and slam.counts["resets"] == 1
     assert slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))
+
+
+def test_a_gap_in_the_gyro_is_not_filled_by_the_next_sample():
+    """The IMU stalls for 5 s while the robot turns 1.5 rad: the sample after the gap stands
+    for its own period only, the step is not covered, and the heading comes from the wheels."""
+    slam = Slam(SlamSettings(), 0.16)
+    pts = np.array([[2.0, y] for y in np.linspace(-1, 1, 40)] + [[x, 1.5] for x in np.linspace(0, 2, 40)])
+    for t in np.arange(0.0, 1.0, 0.02):
+        slam.add_imu(t, 0.0)
+    slam.add_scan(1.0, pts, (0.0, 0.0, 0.0))
+    for t in np.arange(1.0, 2.01, 0.02):
+        slam.add_imu(t, 0.0)
+    slam.add_imu(7.0, 0.3)                                   # the first sample after the gap
+    yaw, covered, samples = slam._integrate_gyro(1.0, 7.0)
+    assert covered == pytest.approx(1.0 + 0.03, abs=1e-6) and yaw == pytest.approx(0.3 * 0.03, abs=1e-9)
+    step, _ = slam._fused_step(7.0, np.array([0.0, 0.0, 1.5]))
+    assert step[2] == pytest.approx(1.5)                     # wheel odometry's heading, not the gyro's 0

@@ -37,6 +37,7 @@ class EvaluatorSettings:
     robot: str = "turtlebot3_waffle_pi"  # F uses its radius_m and lidar range
     output_dir: str = ""                 # run directory; '' = $ROS_HOME/explore_run
     map_frame: str = "odom"
+    odom_frame: str = "odom"             # with SLAM (map_frame map) the odometry's ATE is reported too
     base_frame: str = "base_footprint"
     sample_period_s: float = 2.0         # s (sim) between coverage samples
     ate_period_s: float = 1.0            # s (sim) between ATE samples (DESIGN §6: 1 Hz)
@@ -80,6 +81,7 @@ class RunLog:
         self.distance_m = 0.0                  # along every ground-truth sample, not only path's
         self.last_xy: Optional[tuple] = None   # the latest true position (world, m)
         self.ate_sq_m2: list = []              # squared position errors, one per ATE sample
+        self.ate_odom_sq_m2: list = []         # the same for the raw odometry (odom frame), with SLAM
         self.collisions = 0                    # the simulator's contact count
         self.collisions_at: list = []          # (x m, y m in the map frame, t s on the report's clock)
         self.goals: list = []                  # (x, y) m in the map frame, in the order sent
@@ -132,10 +134,13 @@ class RunLog:
         self.phases[name] = float(t_s)
         return True
 
-    def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple) -> None:
-        """One ATE sample: the estimated base position (map frame) vs the true one (world), m."""
+    def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple, odometry_xy: Optional[tuple] = None) -> None:
+        """One ATE sample: the estimated base position (map frame) vs the true one (world), m;
+        with SLAM also the odometry's (odom frame: the map frame without corrections)."""
         true_xy = world_to_map(np.array([true_world_xy], float), self.start)[0]
         self.ate_sq_m2.append(float((estimate_xy[0] - true_xy[0]) ** 2 + (estimate_xy[1] - true_xy[1]) ** 2))
+        if odometry_xy is not None:
+            self.ate_odom_sq_m2.append(float((odometry_xy[0] - true_xy[0]) ** 2 + (odometry_xy[1] - true_xy[1]) ** 2))
 
     def ate_m(self) -> Optional[float]:
         """The RMSE of the ATE samples (m); None without one."""
@@ -209,6 +214,8 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
         "sim_time_s": round(sim_s, 2), "wall_time_s": round(wall_time_s, 2),
         "rtf": round(sim_s / wall_time_s, 2) if wall_time_s > 0 else None, "finished_reason": reason,
         # extra keys
+        "ate_odometry_m": (math.sqrt(float(np.mean(log.ate_odom_sq_m2))) if log.ate_odom_sq_m2
+                           else log.ate_m()),       # odometry alone, on the same samples
         "distance_to_99_m": None if d99 is None else round(d99, 3),   # along the recorded path
         "F_cells": coverage.cells, "F_m2": round(coverage.area_m2, 2),
         "F_robot_radius_m": robot.radius_m, "goals": len(log.goals),

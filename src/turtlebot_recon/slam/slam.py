@@ -265,8 +265,11 @@ class Slam:
         g = self.gyro
         yaw = covered = 0.0
         samples = 0
+        # a sample stands for one period before it, not for a gap in the stream (a stalled
+        # driver): the gap stays uncovered, and the step falls back on wheel odometry
+        period = float(np.median(np.diff([t for t, _ in g]))) if len(g) > 2 else math.inf
         for (ta, _), (tb, w) in zip(g, g[1:]):
-            overlap = min(tb, t1) - max(ta, t0)
+            overlap = min(tb, t1) - max(ta, tb - 1.5 * period, t0)
             if overlap > 0.0:
                 yaw += w * overlap
                 covered += overlap

@@ -1,0 +1,188 @@
+#!/usr/bin/env python3
+"""SLAM benchmark (`make bench-slam` -> output/bench/slam.json), side by side in one run.
+
+1. **Recorded drives** (offline, outside ROS): the simulator's wander through `house`, `office`
+   and `maze` with the burger for ``--drive-s`` sim seconds at four odometry drifts (wheel slip
+   per sqrt(m) of each wheel's travel): low 0.005, the default 0.01, 3x the default 0.03 and
+   seed 003's "12 %" case (0.17: straight travel then errs by 12 % per metre, 1 sigma). Each log
+   (rosbag with /scan, /odom, /imu) goes through the same pipeline as `make slam-log`; ATE of
+   the optimised keyframes and of the odometry against the simulator's ground truth, map
+   precision of the SLAM map, iSAM2 and scan-match times, memory per 1,000 keyframes.
+2. **GTSAM's city10000** through the back end edge by edge: per-step time and the final error
+   against the iSAM2 reference shipped with the wheel.
+3. **Full explorations** (``--live``; what `make bench-slam` runs): `explore_sim.launch` on the
+   three worlds with the burger at the default drift, odometry alone (``slam:=false``) and
+   with SLAM (``slam:=true``), as `make bench-explore` runs them (runs in
+   output/bench/slam_runs/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
+   map precision, coverage, collisions and the full stack's real-time factor.
+
+Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst world),
+``ate_ratio_odom_over_slam_min``, ``map_precision_min``, ``isam2_ms_median``/``_p99``/``_max``
+(the largest run), ``scan_match_ms_median``, ``memory_mb_per_1000_keyframes``,
+``city10000_ms_median``, ``city10000_max_error_m``, ``full_stack_rtf_slam``.
+"""
+import argparse
+import json
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import write  # noqa: E402
+
+from turtlebot_recon.evaluation.metrics import map_precision  # noqa: E402
+from turtlebot_recon.evaluation.trajectory_metrics import ate, read_tum  # noqa: E402
+from turtlebot_recon.mapping.map_io import load_map  # noqa: E402
+from turtlebot_recon.robot import load_robot  # noqa: E402
+from turtlebot_recon.sim import load_world  # noqa: E402
+from turtlebot_recon.sim.recorder import record_run  # noqa: E402
+from turtlebot_recon.slam.datasets import run_city10000  # noqa: E402
+from turtlebot_recon.slam.offline import run_log  # noqa: E402
+from turtlebot_recon.slam.slam import SlamSettings  # noqa: E402
+
+WORLDS = ("house", "office", "maze")
+ROBOT = "turtlebot3_burger"
+DRIFTS = {"low": 0.005, "default": 0.01, "3x": 0.03, "12pct": 0.17}
+SWEEP = "slam_runs"
+
+
+def rss_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def recorded(drive_s: float, seed: int) -> dict:
+    robot = load_robot(ROBOT)
+    lid = robot.lidar
+    out, timing = {}, {}
+    tmp = Path(tempfile.mkdtemp(prefix="bench_slam_"))
+    for w in WORLDS:
+        world = load_world(w)
+        for level, slip in DRIFTS.items():
+            d = tmp / f"{w}_{level}"
+            run = record_run(world, robot, drive_s, seed=seed, odom_slip=slip, out_dir=d, bag=True)
+            before = rss_mb()
+            res = run_log(run.bag, d / "slam", SlamSettings(), robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
+                          log=lambda *a: None)
+            grown = rss_mb() - before
+            gt = read_tum(run.ground_truth)
+            a_slam = ate(read_tum(d / "slam" / "trajectory.tum"), gt, 0.02)
+            a_odom = ate(read_tum(run.odometry), gt, 0.02)
+            m = load_map(d / "slam" / "map.yaml")
+            prec = map_precision(m[0], m[1], m[2], world, world.start)
+            st = res.stats
+            out[f"{w}/{level}"] = {
+                "slip": slip, "distance_m": round(float(run.distance_m), 1), "keyframes": res.keyframes,
+                "ate_odom_m": a_odom.rmse_m, "ate_slam_m": a_slam.rmse_m, "ate_slam_max_m": a_slam.max_m,
+                "ratio": a_odom.rmse_m / max(a_slam.rmse_m, 1e-9),
+                "map_precision_occupied": prec["map_precision_occupied"],
+                "map_precision_free": prec["map_precision_free"],
+                "loops": f"{st['loop_accepted']}/{st['loop_tried']}", "speedup": res.speedup,
+                "isam2_ms_median": st.get("isam2_ms_median"), "isam2_ms_p99": st.get("isam2_ms_p99"),
+                "isam2_ms_max": st.get("isam2_ms_max"), "scan_match_ms_median": st.get("scan_match_ms_median"),
+                "rss_growth_mb": grown}
+            timing[f"{w}/{level}"] = res.keyframes
+            print(f"[bench-slam] {w:7s} {level:8s} odom {a_odom.rmse_m:.3f} m  slam {a_slam.rmse_m:.3f} m  "
+                  f"precision {prec['map_precision_occupied']:.3f}  loops {st['loop_accepted']}/{st['loop_tried']}  "
+                  f"{res.speedup:.0f}x real time", flush=True)
+    return out
+
+
+def live(seeds: int, resume: bool, budget: float) -> dict:
+    import bench_explore
+    out = {}
+    for mode, args in (("odom", "slam:=false odom_slip:=0.01"), ("slam", "slam:=true odom_slip:=0.01")):
+        name = f"{SWEEP}/{mode}"
+        argv = ["--strategies", "recon", "--worlds", ",".join(WORLDS), "--seeds", str(seeds), "--robot", ROBOT,
+                "--jobs", "1", "--name", name, "--mission", "map", "--launch-args", args]
+        argv += ["--budget", f"{budget:g}"] if budget else []
+        argv += ["--resume"] if resume else []
+        bench_explore.main(argv)
+        (bench_explore.BENCH_DIR / f"{name}.json").unlink(missing_ok=True)
+        for w in WORLDS:
+            for n in range(seeds):
+                d = bench_explore.BENCH_DIR / name / w / "recon" / f"seed{n}"
+                if not (d / "report.json").exists():
+                    out[f"{mode}/{w}/seed{n}"] = "no report"
+                    continue
+                r = json.loads((d / "report.json").read_text())
+                row = {k: r.get(k) for k in ("coverage_final", "time_to_99_s", "ate_m", "map_precision_occupied",
+                                             "map_precision_free", "collisions", "rtf", "finished_reason")}
+                if (d / "trajectory.tum").exists() and (d / "ground_truth.tum").exists():
+                    row["keyframe_ate_m"] = ate(read_tum(d / "trajectory.tum"), read_tum(d / "ground_truth.tum"),
+                                                0.06).rmse_m
+                out[f"{mode}/{w}/seed{n}"] = row
+    return out
+
+
+def summary(rec: dict, city: dict, runs: dict) -> dict:
+    fig = {}
+    default = [v for k, v in rec.items() if k.endswith("/default")]
+    fig["offline_ate_m_default_max"] = max(v["ate_slam_m"] for v in default)
+    fig["offline_ate_ratio_odom_over_slam_min"] = min(v["ratio"] for v in default)
+    fig["offline_map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in default)
+    for level in DRIFTS:
+        rows = [v for k, v in rec.items() if k.endswith(f"/{level}")]
+        fig[f"offline_ate_m_{level}_max"] = max(v["ate_slam_m"] for v in rows)
+        fig[f"offline_ate_odom_m_{level}_max"] = max(v["ate_odom_m"] for v in rows)
+    largest = max(rec.values(), key=lambda v: v["keyframes"])
+    for k in ("isam2_ms_median", "isam2_ms_p99", "isam2_ms_max"):
+        fig[k] = largest[k]
+    fig["isam2_keyframes_largest_run"] = largest["keyframes"]
+    fig["scan_match_ms_median"] = statistics.median(v["scan_match_ms_median"] for v in rec.values())
+    fig["memory_mb_per_1000_keyframes"] = 1000.0 * largest["rss_growth_mb"] / max(largest["keyframes"], 1)
+    fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in rec.values())
+    fig.update({k: v for k, v in city.items() if k.startswith("city10000_")})
+    slam = [v for k, v in runs.items() if k.startswith("slam/") and isinstance(v, dict)]
+    odom = [v for k, v in runs.items() if k.startswith("odom/") and isinstance(v, dict)]
+    if slam:
+        fig["ate_m_default_max"] = max(v["ate_m"] for v in slam if v["ate_m"] is not None)
+        fig["keyframe_ate_m_default_max"] = max(v.get("keyframe_ate_m") or 0.0 for v in slam)
+        fig["map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in slam)
+        fig["coverage_min_slam"] = min(v["coverage_final"] for v in slam)
+        fig["collisions_slam"] = sum(v["collisions"] for v in slam)
+        fig["full_stack_rtf_slam"] = statistics.median(v["rtf"] for v in slam)
+    if slam and odom:
+        ratios = []
+        for key, v in runs.items():
+            twin = runs.get(key.replace("slam/", "odom/", 1)) if key.startswith("slam/") else None
+            if isinstance(v, dict) and isinstance(twin, dict) and v["ate_m"] and twin["ate_m"]:
+                ratios.append(twin["ate_m"] / v["ate_m"])
+        fig["ate_ratio_odom_over_slam_min"] = min(ratios) if ratios else None
+        fig["full_stack_rtf_odom"] = statistics.median(v["rtf"] for v in odom)
+    return fig
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--drive-s", type=float, default=600.0, help="sim seconds of each recorded drive")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--live", action="store_true", help="also the full explorations (odometry alone vs SLAM)")
+    p.add_argument("--seeds", type=int, default=1, help="seeds of the full explorations")
+    p.add_argument("--budget", type=float, default=0.0, help="sim s of each exploration (0: bench-explore's rule)")
+    p.add_argument("--resume", action="store_true", help="reuse finished explorations")
+    a = p.parse_args(argv)
+    t0 = time.monotonic()
+    rec = recorded(a.drive_s, a.seed)
+    city = run_city10000()
+    print(f"[bench-slam] city10000: median {city['city10000_ms_median']:.2f} ms, max error "
+          f"{city['city10000_max_error_m']:.3f} m", flush=True)
+    runs = live(a.seeds, a.resume, a.budget) if a.live else {}
+    fig = summary(rec, city, runs)
+    fig["recorded"] = rec
+    fig["runs"] = runs
+    fig["city10000_times_ms_every_100"] = city["times_ms"][::100]
+    fig["drive_s"] = a.drive_s
+    fig["wall_s"] = time.monotonic() - t0
+    write("slam", fig)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
