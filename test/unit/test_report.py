@@ -246,6 +246,7 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "tag_error_max_m": None, "false_tags": None, "tag_search_s": None,
         "distance_m": 2.0, "collisions": 1,
         "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
+        "ate_odometry_m": pytest.approx(0.035355, abs=1e-6),   # no SLAM: the odometry is the estimate
         "distance_to_99_m": 2.0,          # along the kept points until t = 3 s: 1 + 1
         "F_cells": 4800, "F_m2": 12.0, "F_robot_radius_m": 0.105, "goals": 2, "ate_samples": 2,
         "sim_start_s": 10.0, "map": "/runs/x/map.yaml", "collisions_at": [(1.0, 1.0, 3.5)],
