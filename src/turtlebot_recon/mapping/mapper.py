@@ -38,8 +38,8 @@ class MapperSettings:
     save_on_shutdown: bool = True
     # With SLAM (its keyframe poses on slam_path): the map is drawn again from the keyframes'
     # scans at their optimised poses once any of them has moved this far since the last drawing
-    rerender_shift_m: float = 0.05       # m (one cell)
-    rerender_shift_rad: float = 0.02     # rad (~1 degree: 7 cm at the lidar's 3.5 m)
+    rerender_shift_m: float = 0.02       # m (under half a cell: walls drawn at two poses thicken)
+    rerender_shift_rad: float = 0.01     # rad (3.5 cm at the lidar's 3.5 m)
     odom_frame: str = "odom"             # with SLAM, scans are kept with their odometry pose
     grid: GridSettings = field(default_factory=GridSettings)
 
