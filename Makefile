@@ -14,6 +14,7 @@ WORLD    ?= house
 ROBOT    ?= turtlebot3_waffle_pi
 STRATEGY ?= recon
 MISSION  ?= auto
+SLAM     ?= false
 RTF      ?= 0
 SEED     ?= 0
 BUDGET   ?= 1800
@@ -75,10 +76,10 @@ test: build
 	$(ENV) python -m pytest test -q -p no:cacheprovider
 
 run: build
-	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), mission $(MISSION), headless; output in $(OUTPUT)"
+	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), mission $(MISSION), slam $(SLAM), headless; output in $(OUTPUT)"
 	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
-	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) mission:=$(MISSION) rtf:=$(RTF) seed:=$(SEED) budget:=$(BUDGET) \
-	  rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
+	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) mission:=$(MISSION) slam:=$(SLAM) rtf:=$(RTF) seed:=$(SEED) \
+	  budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
 
 wander: build
 	@$(ENV) tools/launch --tag wander --done scripted_drive --report $(abspath $(OUTPUT))/report.json run_sim.launch \
