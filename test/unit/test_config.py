@@ -22,6 +22,7 @@ from turtlebot_recon.planning.navigation import NavigationSettings
 from turtlebot_recon.robot import CONFIG_DIR, RobotSpec, load_robot
 from turtlebot_recon.sim.simulator import SimSettings
 from turtlebot_recon.sim.wander import WanderSettings
+from turtlebot_recon.slam.slam import SlamNodeSettings
 from turtlebot_recon.trajectory import TrajectorySettings
 
 TOP = Path(__file__).resolve().parents[2]
@@ -49,6 +50,7 @@ BLOCKS = {
     ("explorer.yaml", ("tag_search",)): TagSearchSettings,
     ("tag_detector.yaml", ()): DetectorNodeSettings,
     ("tag_tracker.yaml", ()): TrackerNodeSettings,
+    ("slam.yaml", ()): SlamNodeSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
 OWN_FILE = {LatticeSettings: "lattice.yaml"}

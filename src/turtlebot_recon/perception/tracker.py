@@ -83,6 +83,7 @@ class TrackerNodeSettings:
     publish_rate_hz: float = 2.0     # /tags and /tags/markers
     tags_file: str = ""              # base path of tags.yaml / tags.csv ('' = $ROS_HOME/tags)
     save_on_shutdown: bool = True
+    slam_landmarks: bool = False     # a tag in SLAM's graph (/slam/landmarks) takes the graph's x, y
     tracker: TrackerSettings = TrackerSettings()
 
     def validate(self, source: str) -> None:

@@ -23,6 +23,7 @@ The map frame is the odom frame as it was when the first scan came (the start po
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -64,16 +65,16 @@ class SlamSettings:
     loop_submap_half_keyframes: int = 6   # candidate's submap: keyframes j-N .. j+N
     loop_min_score: float = 0.65          # accept a closure at or above this match score
     loop_max_candidates: int = 2          # matches tried per search
+    loop_search_xy_m: float = 1.0         # a loop closure's correlative window: half-width (m) ...
+    loop_search_yaw_rad: float = 0.5      # ... and in yaw (rad); the rest as matcher's
     matcher: MatcherSettings = field(default_factory=MatcherSettings)
-    loop_matcher: MatcherSettings = field(default_factory=lambda: MatcherSettings(
-        search_xy_m=1.0, search_yaw_rad=0.5))
     graph: GraphSettings = field(default_factory=GraphSettings)
 
     def validate(self, src: str) -> None:
         positive(src, self, "keyframe_distance_m", "keyframe_angle_rad", "submap_keyframes", "match_gate_chi2",
                  "odom_slip_std_sqrt_m", "odom_floor_std_m", "odom_floor_std_rad", "loop_every_keyframes",
                  "loop_min_gap_keyframes", "loop_radius_min_m", "loop_radius_max_m",
-                 "loop_submap_half_keyframes", "loop_max_candidates")
+                 "loop_submap_half_keyframes", "loop_max_candidates", "loop_search_xy_m", "loop_search_yaw_rad")
         require(self.loop_radius_min_m <= self.loop_radius_max_m, src, "loop_radius_min_m",
                 "must be <= loop_radius_max_m")
         for key in ("match_min_score", "loop_min_score"):
@@ -114,7 +115,8 @@ class Slam:
         self.s = settings
         self.separation = wheel_separation_m
         self.matcher = ScanMatcher(settings.matcher)
-        self.loop_matcher = ScanMatcher(settings.loop_matcher)
+        self.loop_matcher = ScanMatcher(dataclasses.replace(
+            settings.matcher, search_xy_m=settings.loop_search_xy_m, search_yaw_rad=settings.loop_search_yaw_rad))
         self.graph: Optional[PoseGraph] = None
         self.keyframes: list[Keyframe] = []
         self.estimates = np.zeros((0, 3))
