@@ -13,7 +13,7 @@
 3. **Full explorations** (``--live``; what `make bench-slam` runs): `explore_sim.launch` on the
    three worlds with the burger at the default drift, odometry alone (``slam:=false``) and
    with SLAM (``slam:=true``), as `make bench-explore` runs them (runs in
-   output/bench/slam_runs/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
+   output/bench/slam_runs_odom/ and slam_runs_slam/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
    map precision, coverage, collisions and the full stack's real-time factor.
 
 Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst world),
@@ -98,7 +98,7 @@ def live(seeds: int, resume: bool, budget: float) -> dict:
     import bench_explore
     out = {}
     for mode, args in (("odom", "slam:=false odom_slip:=0.01"), ("slam", "slam:=true odom_slip:=0.01")):
-        name = f"{SWEEP}/{mode}"
+        name = f"{SWEEP}_{mode}"
         argv = ["--strategies", "recon", "--worlds", ",".join(WORLDS), "--seeds", str(seeds), "--robot", ROBOT,
                 "--jobs", "1", "--name", name, "--mission", "map", "--launch-args", args]
         argv += ["--budget", f"{budget:g}"] if budget else []
@@ -167,17 +167,27 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=1, help="seeds of the full explorations")
     p.add_argument("--budget", type=float, default=0.0, help="sim s of each exploration (0: bench-explore's rule)")
     p.add_argument("--resume", action="store_true", help="reuse finished explorations")
+    p.add_argument("--recorded-from", help="take the recorded drives' and city10000's results from this earlier "
+                   "slam.json instead of running them again")
     a = p.parse_args(argv)
     t0 = time.monotonic()
-    rec = recorded(a.drive_s, a.seed)
-    city = run_city10000()
+    if a.recorded_from:
+        old = json.loads(Path(a.recorded_from).read_text())
+        rec = old["recorded"]
+        city = {k: v for k, v in old.items() if k.startswith("city10000_")}
+        city["times_ms"] = old["city10000_times_ms_every_100"]
+        city.pop("city10000_times_ms_every_100")
+        a.drive_s = old["drive_s"]
+    else:
+        rec = recorded(a.drive_s, a.seed)
+        city = run_city10000()
     print(f"[bench-slam] city10000: median {city['city10000_ms_median']:.2f} ms, max error "
           f"{city['city10000_max_error_m']:.3f} m", flush=True)
     runs = live(a.seeds, a.resume, a.budget) if a.live else {}
     fig = summary(rec, city, runs)
     fig["recorded"] = rec
     fig["runs"] = runs
-    fig["city10000_times_ms_every_100"] = city["times_ms"][::100]
+    fig["city10000_times_ms_every_100"] = city["times_ms"] if a.recorded_from else city["times_ms"][::100]
     fig["drive_s"] = a.drive_s
     fig["wall_s"] = time.monotonic() - t0
     write("slam", fig)
