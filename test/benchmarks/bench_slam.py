@@ -112,7 +112,8 @@ def live(seeds: int, resume: bool, budget: float) -> dict:
                     out[f"{mode}/{w}/seed{n}"] = "no report"
                     continue
                 r = json.loads((d / "report.json").read_text())
-                row = {k: r.get(k) for k in ("coverage_final", "time_to_99_s", "ate_m", "map_precision_occupied",
+                row = {k: r.get(k) for k in ("coverage_final", "time_to_99_s", "ate_m", "ate_odometry_m",
+                                             "map_precision_occupied",
                                              "map_precision_free", "collisions", "rtf", "finished_reason")}
                 if (d / "trajectory.tum").exists() and (d / "ground_truth.tum").exists():
                     row["keyframe_ate_m"] = ate(read_tum(d / "trajectory.tum"), read_tum(d / "ground_truth.tum"),
@@ -148,13 +149,18 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
         fig["coverage_min_slam"] = min(v["coverage_final"] for v in slam)
         fig["collisions_slam"] = sum(v["collisions"] for v in slam)
         fig["full_stack_rtf_slam"] = statistics.median(v["rtf"] for v in slam)
+    if slam:
+        # the odometry's ATE on the same samples of the same run (the evaluator's ate_odometry_m)
+        fig["ate_ratio_odom_over_slam_min"] = min(v["ate_odometry_m"] / v["ate_m"] for v in slam)
     if slam and odom:
+        # against the twin run with SLAM off (the map drawn in odom: exploration itself suffers)
         ratios = []
         for key, v in runs.items():
             twin = runs.get(key.replace("slam/", "odom/", 1)) if key.startswith("slam/") else None
             if isinstance(v, dict) and isinstance(twin, dict) and v["ate_m"] and twin["ate_m"]:
                 ratios.append(twin["ate_m"] / v["ate_m"])
-        fig["ate_ratio_odom_over_slam_min"] = min(ratios) if ratios else None
+        fig["ate_ratio_odom_run_over_slam_run_min"] = min(ratios) if ratios else None
+        fig["coverage_min_odom"] = min(v["coverage_final"] for v in odom)
         fig["full_stack_rtf_odom"] = statistics.median(v["rtf"] for v in odom)
     return fig
 
