@@ -386,6 +386,25 @@ std::string repr(const OccupancyGrid& g) {
   return o.str();
 }
 
+// One scan's description for OccupancyGrid::insert_scan (ranges not copied).
+turtlebot_recon::Scan scan_at(double x, double y, double yaw, const float* ranges, std::size_t count,
+                              double angle_min, double angle_increment, double range_min,
+                              double range_max, double no_return_clear_m, double range_cap_m) {
+  turtlebot_recon::Scan scan;
+  scan.sensor_x = x;
+  scan.sensor_y = y;
+  scan.sensor_yaw = yaw;
+  scan.ranges = ranges;
+  scan.count = count;
+  scan.angle_min = angle_min;
+  scan.angle_increment = angle_increment;
+  scan.range_min = range_min;
+  scan.range_max = range_max;
+  scan.no_return_clear_m = no_return_clear_m;
+  scan.range_cap_m = range_cap_m;
+  return scan;
+}
+
 ScanStats py_insert_scan(OccupancyGrid& grid, double sensor_x, double sensor_y, double sensor_yaw,
                          const FloatArray& ranges, double angle_min, double angle_increment,
                          double range_min, double range_max, double no_return_clear_m,
@@ -393,18 +412,9 @@ ScanStats py_insert_scan(OccupancyGrid& grid, double sensor_x, double sensor_y, 
   if (ranges.ndim() != 1)
     throw std::invalid_argument("insert_scan: ranges must be a 1-D array, got " +
                                 std::to_string(ranges.ndim()) + " dimensions");
-  turtlebot_recon::Scan scan;
-  scan.sensor_x = sensor_x;
-  scan.sensor_y = sensor_y;
-  scan.sensor_yaw = sensor_yaw;
-  scan.ranges = ranges.data();
-  scan.count = static_cast<std::size_t>(ranges.shape(0));
-  scan.angle_min = angle_min;
-  scan.angle_increment = angle_increment;
-  scan.range_min = range_min;
-  scan.range_max = range_max;
-  scan.no_return_clear_m = no_return_clear_m;
-  scan.range_cap_m = range_cap_m;
+  const auto scan = scan_at(sensor_x, sensor_y, sensor_yaw, ranges.data(),
+                            static_cast<std::size_t>(ranges.shape(0)), angle_min, angle_increment,
+                            range_min, range_max, no_return_clear_m, range_cap_m);
   py::gil_scoped_release release;
   return grid.insert_scan(scan);
 }
@@ -427,19 +437,9 @@ ScanStats py_insert_scans(OccupancyGrid& grid, const DoubleArray& poses, const F
   ScanStats total;
   py::gil_scoped_release release;
   for (std::size_t i = 0; i < n; ++i) {
-    turtlebot_recon::Scan scan;
-    scan.sensor_x = p[3 * i];
-    scan.sensor_y = p[3 * i + 1];
-    scan.sensor_yaw = p[3 * i + 2];
-    scan.ranges = r + i * beams;
-    scan.count = beams;
-    scan.angle_min = angle_min;
-    scan.angle_increment = angle_increment;
-    scan.range_min = range_min;
-    scan.range_max = range_max;
-    scan.no_return_clear_m = no_return_clear_m;
-    scan.range_cap_m = range_cap_m;
-    const ScanStats s = grid.insert_scan(scan);
+    const ScanStats s = grid.insert_scan(scan_at(p[3 * i], p[3 * i + 1], p[3 * i + 2], r + i * beams, beams,
+                                                 angle_min, angle_increment, range_min, range_max,
+                                                 no_return_clear_m, range_cap_m));
     total.valid += s.valid;
     total.no_return += s.no_return;
     total.capped += s.capped;
