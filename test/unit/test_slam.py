@@ -166,3 +166,23 @@ def test_a_gap_in_the_gyro_is_not_filled_by_the_next_sample():
     assert covered == pytest.approx(1.0 + 0.03, abs=1e-6) and yaw == pytest.approx(0.3 * 0.03, abs=1e-9)
     step, _ = slam._fused_step(7.0, np.array([0.0, 0.0, 1.5]))
     assert step[2] == pytest.approx(1.5)                     # wheel odometry's heading, not the gyro's 0
+
+
+def test_tags_enter_the_graph_after_two_sightings_at_their_place():
+    """A tag seen from the last keyframe (base frame, through the odometry since it) becomes a
+    landmark only at its second sighting, where the two sightings put it."""
+    slam = Slam(SlamSettings(), 0.16)
+    pts = np.array([[2.0, y] for y in np.linspace(-1, 1, 40)] + [[x, 1.5] for x in np.linspace(0, 2, 40)])
+    slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))
+    slam.add_scan(0.2, pts - [0.3, 0.0], (0.3, 0.0, 0.0))           # a keyframe 0.3 m on
+    assert slam.add_tag(0.25, "tag36h11:3", (1.5, 0.5), np.diag([1e-4, 1e-4])) is None
+    assert "tag36h11:3" not in slam.graph.landmarks()                  # one sighting: buffered
+    slam.add_scan(0.4, pts - [0.35, 0.0], (0.35, 0.0, 0.0))          # moved 5 cm: no keyframe
+    assert slam.add_tag(0.45, "tag36h11:3", (1.45, 0.5), np.diag([1e-4, 1e-4])) is None
+    slam.add_scan(0.6, pts - [0.6, 0.0], (0.6, 0.0, 0.0))            # the next keyframe updates
+    xy = slam.graph.landmarks()["tag36h11:3"]
+    np.testing.assert_allclose(xy, (1.8, 0.5), atol=0.02)             # 0.3 + 1.5, in the map
+    # an absurd sighting is refused with a reason, the graph untouched
+    assert "finite" in slam.add_tag(0.65, "tag36h11:3", (float("nan"), 0.5), np.eye(2))
+    assert "inconsistent" in slam.add_tag(0.65, "tag36h11:3", (4.0, -3.0), np.diag([1e-4, 1e-4]))
+    np.testing.assert_allclose(slam.graph.landmarks()["tag36h11:3"], (1.8, 0.5), atol=0.02)

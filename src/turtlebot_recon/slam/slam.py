@@ -191,7 +191,10 @@ class Slam:
         # stands in for one at the stamp: tags come at camera rate, within a scan period)
         rel = between(last.odom, self.last_odom[1])
         xy = compose(rel, (float(xy_base[0]), float(xy_base[1]), 0.0))[:2]
-        return self.graph.add_landmark(name, len(self.keyframes) - 1, xy, np.asarray(covariance_xy, float))
+        try:
+            return self.graph.add_landmark(name, len(self.keyframes) - 1, xy, np.asarray(covariance_xy, float))
+        except ValueError as exc:       # NaN, a covariance that is not one: refused, graph untouched
+            return str(exc)
 
     # ------------------------------------------------------------------ outputs
     def map_to_odom(self) -> np.ndarray:
