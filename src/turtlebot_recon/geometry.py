@@ -42,6 +42,18 @@ def between(a, b) -> np.ndarray:
     return compose(inverse(a), b)
 
 
+def transform_points(pose, xy) -> np.ndarray:
+    """(n, 2) points given in the frame at ``pose`` (x, y, yaw), brought into its parent."""
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.column_stack([pose[0] + c * xy[:, 0] - s * xy[:, 1], pose[1] + s * xy[:, 0] + c * xy[:, 1]])
+
+
+def yaw_from_quaternion(qx, qy, qz, qw):
+    """Yaw (rad) of a unit quaternion (x, y, z, w); numbers or arrays."""
+    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+
+
 def xy_to_cell(xy: Sequence[float], resolution: float, origin: Sequence[float]) -> Tuple[int, int]:
     """(x, y) m -> the (row, col) of the cell that holds it (may lie outside the grid)."""
     return (int(math.floor((xy[1] - origin[1]) / resolution)),

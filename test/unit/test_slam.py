@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import room, write_world
-from turtlebot_recon.geometry import between, compose, wrap_angle
+from turtlebot_recon.geometry import between, transform_points, wrap_angle
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.slam.scan_matching import scan_points
 from turtlebot_recon.slam.slam import Slam, SlamSettings, odometry_covariance
@@ -57,7 +57,7 @@ def drive(sim, waypoints, laps, slam=None, speed=0.2):
         if "scan" in due:
             r = sim.scan()
             pts = scan_points(r, lid.angle_min_rad, lid.angle_increment_rad, lid.range_min_m, lid.range_max_m)
-            base = compose(offset, np.column_stack([pts, np.zeros(len(pts))]))[:, :2]
+            base = transform_points(offset, pts)
             if slam is not None:
                 slam.add_scan(sim.time_s, base, odom)
             out[0].append(sim.time_s)

@@ -18,6 +18,7 @@ from typing import Optional
 import numpy as np
 
 from ..config import positive, require
+from ..geometry import wrap_angle
 from ..robot import RobotSpec
 from ..sim.world import World
 from .coverage import CoverageTracker, world_to_map
@@ -150,8 +151,7 @@ class RunLog:
         """(n, 4): every ground-truth sample as (absolute sim time s, x, y, yaw) in the map
         frame: ground_truth.tum, to score SLAM's trajectory.tum with ``make slam-eval``."""
         p = np.asarray(self.poses, float).reshape(-1, 4)
-        return np.column_stack([p[:, 0], world_to_map(p[:, 1:3], self.start),
-                                np.arctan2(np.sin(p[:, 3] - self.start[2]), np.cos(p[:, 3] - self.start[2]))])
+        return np.column_stack([p[:, 0], world_to_map(p[:, 1:3], self.start), wrap_angle(p[:, 3] - self.start[2])])
 
     def path_in_map(self) -> np.ndarray:
         """(n, 3) float: the true path as path.csv holds it, sim time on the report's clock (s,

@@ -28,12 +28,7 @@ from typing import Optional, Tuple, Union
 
 import numpy as np
 
-from ..geometry import between, compose, inverse, wrap_angle
-
-
-def yaw_from_quaternion(qx, qy, qz, qw):
-    """Yaw (rad) of a unit quaternion (x, y, z, w); numbers or arrays."""
-    return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
+from ..geometry import between, compose, inverse, transform_points, wrap_angle, yaw_from_quaternion  # noqa: F401 (re-exported)
 
 
 def _numbers(path: Union[str, Path], columns: int, what: str) -> np.ndarray:
@@ -127,7 +122,7 @@ def ate(est: np.ndarray, gt: np.ndarray, max_dt_s: float = 0.02, align: bool = F
     transform = np.zeros(3)
     if align and len(i) >= 2:
         transform = align_se2(xy, gt[j, 1:3])
-        xy = compose(transform, np.column_stack([xy, np.zeros(len(xy))]))[:, :2]
+        xy = transform_points(transform, xy)
     e = np.linalg.norm(xy - gt[j, 1:3], axis=1)
     return AteResult(float(np.sqrt(np.mean(e ** 2))), float(e.mean()), float(np.median(e)), float(e.max()),
                      len(i), len(est), tuple(float(v) for v in transform))

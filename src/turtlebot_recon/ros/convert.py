@@ -10,6 +10,9 @@ from nav_msgs.msg import OccupancyGrid, Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
 
+from scipy.spatial.transform import Rotation
+
+from ..geometry import yaw_from_quaternion
 from ..robot import CameraSpec, LidarSpec
 
 
@@ -22,7 +25,16 @@ def yaw_to_quaternion(yaw: float) -> Quaternion:
 
 
 def quaternion_to_yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    return float(yaw_from_quaternion(q.x, q.y, q.z, q.w))
+
+
+def transform_matrix(t: TransformStamped) -> np.ndarray:
+    """The 4x4 homogeneous matrix of a transform (child frame's pose in the parent)."""
+    q, v = t.transform.rotation, t.transform.translation
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()
+    T[:3, 3] = (v.x, v.y, v.z)
+    return T
 
 
 def z_axis_yaw(q) -> float:

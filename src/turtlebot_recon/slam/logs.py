@@ -52,6 +52,8 @@ from typing import Any, Iterable, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
 
+from ..geometry import yaw_from_quaternion
+
 FLASER_RANGE_MAX_M = 81.9     # SICK LMS (the FLASER datasets' laser): 8191 cm is "no return"
 MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*$")
 MAX_BEAMS = 100_000           # a count above this is a corrupted field, not a laser
@@ -377,10 +379,6 @@ def _rosbag():
     return rosbag, genpy, LaserScan, Odometry, Imu
 
 
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 class BagReader:
     """Records of a rosbag in header-stamp order, with TimeJump where time went back.
 
@@ -445,7 +443,7 @@ class BagReader:
             return LaserRecord(stamp, np.asarray(msg.ranges, dtype=np.float32), *values)
         if kind == "odom":
             p, tw = msg.pose.pose, msg.twist.twist
-            vals = (p.position.x, p.position.y, _yaw(p.orientation), tw.linear.x, tw.angular.z)
+            vals = (p.position.x, p.position.y, float(yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)), tw.linear.x, tw.angular.z)
             if not all(math.isfinite(v) for v in vals):
                 self.stats.skip("non-finite odometry", f"{topic} at {stamp:.3f} s", f"{vals}")
                 return None

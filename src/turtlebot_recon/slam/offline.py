@@ -20,7 +20,7 @@ from typing import Optional
 import numpy as np
 
 from ..evaluation.trajectory_metrics import write_tum
-from ..geometry import between, compose, wrap_angle
+from ..geometry import between, compose, transform_points, wrap_angle
 from ..mapping.grid import GridSettings, make_grid
 from ..mapping.map_io import save_map
 from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump, read_log
@@ -86,7 +86,7 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
 
     def use(rec: LaserRecord, pose, offset) -> None:
         pts = scan_points(rec.ranges, rec.angle_min, rec.angle_increment, rec.range_min, rec.range_max)
-        base = compose(offset, np.column_stack([pts, np.zeros(len(pts))]))[:, :2] if len(pts) else pts
+        base = transform_points(offset, pts)
         odometry_rows.append((rec.stamp_s, *pose))
         if slam.add_scan(rec.stamp_s, base, pose):
             scans[rec.stamp_s] = (rec, offset)
@@ -130,12 +130,16 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
     write_tum(out / "odometry.tum", np.array(odometry_rows, float).reshape(-1, 4))
     slam.graph.save_g2o(str(out / "graph.g2o"))
     g = make_grid(grid)
-    for t, pose in zip(stamps, slam.estimates):
-        rec, offset = scans[t]
-        s = compose(pose, offset)
-        g.insert_scan(s[0], s[1], s[2], np.asarray(rec.ranges, np.float32), rec.angle_min, rec.angle_increment,
-                      rec.range_min, rec.range_max, no_return_clear_m=grid.no_return_clear_m,
-                      range_cap_m=grid.range_cap_m)
+    layouts: dict = {}        # the keyframes' scans by beam layout (one lidar: one C++ call)
+    for i, t in enumerate(stamps):
+        rec = scans[t][0]
+        layouts.setdefault((len(rec.ranges), rec.angle_min, rec.angle_increment, rec.range_min, rec.range_max),
+                           []).append(i)
+    for (_, amin, inc, rmin, rmax), idx in layouts.items():
+        sensor = compose(slam.estimates[idx], np.array([scans[stamps[i]][1] for i in idx]))
+        ranges = np.stack([np.asarray(scans[stamps[i]][0].ranges, np.float32) for i in idx])
+        g.insert_scans(sensor, ranges, amin, inc, rmin, rmax, no_return_clear_m=grid.no_return_clear_m,
+                       range_cap_m=grid.range_cap_m)
     save_map(out / "map", g.occupancy(), g.resolution, (g.origin_x, g.origin_y))
     return OfflineResult(keyframes=len(slam.keyframes), scans=len(odometry_rows), scans_dropped=dropped,
                          log_seconds=(last - first) if first is not None else 0.0, wall_seconds=wall,

@@ -32,7 +32,7 @@ from typing import Optional
 import numpy as np
 
 from ..config import positive, require
-from ..geometry import between, compose, inverse, wrap_angle
+from ..geometry import between, compose, inverse, transform_points, wrap_angle
 from .graph import GraphSettings, PoseGraph
 from .scan_matching import MatcherSettings, ScanMatcher
 
@@ -292,7 +292,7 @@ class Slam:
 
     def _submap(self, lo: int, hi: int) -> np.ndarray:
         """The points of keyframes lo..hi-1 in the map frame, at their current estimates."""
-        parts = [compose(self.estimates[i], np.column_stack([kf.points, np.zeros(len(kf.points))]))[:, :2]
+        parts = [transform_points(self.estimates[i], kf.points)
                  for i, kf in zip(range(lo, hi), self.keyframes[lo:hi]) if len(kf.points)]
         return np.vstack(parts) if parts else np.zeros((0, 2))
 
