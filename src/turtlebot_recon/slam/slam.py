@@ -123,7 +123,6 @@ class Slam:
         self.gyro: list[tuple] = []             # (stamp, yaw rate) since the last keyframe
         self.last_odom = None                   # (stamp, pose) of the last scan seen
         self.odom_jumped = False
-        self.odom_jumped_step = False
         self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
                            loop_accepted=0, odom_jumps=0, resets=0, imu_fused=0)
         self.update_ms: list[float] = []
@@ -300,9 +299,8 @@ class Slam:
         prev = len(self.keyframes) - 1
         step, cov = self._fused_step(stamp_s, delta)
         factors = []
-        self.odom_jumped_step = self.odom_jumped
-        if self.odom_jumped:
-            self.odom_jumped = False
+        jumped, self.odom_jumped = self.odom_jumped, False
+        if jumped:
             # no odometry across the jump: a loose tie keeps the graph connected
             factors.append((prev, np.zeros(3), np.diag([1.0, 1.0, math.pi ** 2])))
             guess = self.estimates[prev]
@@ -314,7 +312,7 @@ class Slam:
         match = self.matcher.match(points, reference, guess) if len(points) else None
         self.match_ms.append(1e3 * (time.perf_counter() - t0))
         if match is not None and match.score >= self.s.match_min_score:
-            if self.odom_jumped_step or self._consistent(guess, cov, match):
+            if jumped or self._consistent(guess, cov, match):
                 factors.append((prev, between(self.estimates[prev], match.pose), match.covariance))
                 self.counts["matched"] += 1
                 self.counts["degenerate"] += int(match.degenerate)
