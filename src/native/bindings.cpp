@@ -19,6 +19,7 @@ void register_exploration(py::module_& m);  // exploration.cpp
 void register_lattice(py::module_& m);    // lattice.cpp
 void register_perception(py::module_& m);  // camera_coverage.cpp
 void register_slam(py::module_& m);  // scan_matcher.cpp
+void register_body_field(py::module_& m);  // body_field.cpp (the controllers' obstacle test)
 
 namespace {
 
@@ -64,4 +65,5 @@ PYBIND11_MODULE(_native, m) {
   register_lattice(m);
   register_perception(m);
   register_slam(m);
+  register_body_field(m);
 }
