@@ -22,7 +22,7 @@ from turtlebot_recon.config import ConfigError, from_dict, load_yaml
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.slam.logs import LogError
 from turtlebot_recon.slam.offline import run_log
-from turtlebot_recon.slam.slam import SlamNodeSettings
+from turtlebot_recon.slam.node_settings import SlamNodeSettings
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "slam.yaml"
 

@@ -22,7 +22,7 @@ from turtlebot_recon.planning.navigation import NavigationSettings
 from turtlebot_recon.robot import CONFIG_DIR, RobotSpec, load_robot
 from turtlebot_recon.sim.simulator import SimSettings
 from turtlebot_recon.sim.wander import WanderSettings
-from turtlebot_recon.slam.slam import SlamNodeSettings
+from turtlebot_recon.slam.node_settings import SlamNodeSettings
 from turtlebot_recon.trajectory import TrajectorySettings
 
 TOP = Path(__file__).resolve().parents[2]

@@ -30,9 +30,10 @@ def test_surface_points_lie_on_the_faces_between_wall_and_free_cells():
     occ = np.full((4, 5), -1, np.int8)
     occ[1:3, 1:4] = 0
     occ[1, 2] = 100                   # one wall cell with free cells left, right and above
-    pts = surface_points(occ, 0.1, (1.0, 2.0))
-    expected = {(1.2, 2.15), (1.3, 2.15), (1.25, 2.2)}   # x faces at 1.2 / 1.3, the top face y 2.2
-    assert {(round(x, 3), round(y, 3)) for x, y in pts} == expected
+    pts, normals = surface_points(occ, 0.1, (1.0, 2.0))
+    found = {(round(x, 3), round(y, 3)): tuple(n) for (x, y), n in zip(pts, normals)}
+    # x faces at 1.2 / 1.3 (normals -x / +x), the top face at y 2.2 (normal +y)
+    assert found == {(1.2, 2.15): (-1.0, 0.0), (1.3, 2.15): (1.0, 0.0), (1.25, 2.2): (0.0, 1.0)}
 
 
 @pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (0.2, -0.15, 0.12)])

@@ -17,7 +17,8 @@ e.g. the one a SLAM run wrote) and the robot's map pose is an extended Kalman fi
 The map is matched through its surface, not its cells: a point at the middle of every face
 between an occupied and a free cell. A wall drawn on cell boundaries (the simulator's) lies
 exactly on those faces; occupied cells' centres would sit half a cell inside it and pull every
-pose half a cell away from each wall it sees.
+pose half a cell away from each wall it sees. Faces turned away from the robot are left out (a
+lidar cannot see them): a thin wall's two faces, 10 cm apart, would otherwise fit no line.
 
 Frames: poses are the base's in the map frame, the odometry in the odom frame; ``map_to_odom``
 is what the node publishes. Units: m, rad.
@@ -35,7 +36,7 @@ import numpy as np
 from ..config import positive, require
 from ..geometry import between, compose, inverse, wrap_angle
 from .scan_matching import MatcherSettings, ScanMatcher
-from .slam import SlamSettings, odometry_covariance
+from .slam import MAX_PLAUSIBLE_SPEED_MPS, MAX_PLAUSIBLE_TURN_RADPS, SlamSettings, odometry_covariance
 
 
 @dataclass(frozen=True)
@@ -67,20 +68,22 @@ class LocalizationSettings:
         require(0 < self.occupied_threshold <= 100, src, "occupied_threshold", "must be in 1..100")
 
 
-def surface_points(occupancy: np.ndarray, resolution: float, origin, occupied_threshold: int = 65) -> np.ndarray:
-    """(n, 2) map-frame points (m): the middle of every face between an obstacle cell
-    (>= occupied_threshold) and a free one (0 .. threshold). Row 0 at the smallest y."""
+def surface_points(occupancy: np.ndarray, resolution: float, origin, occupied_threshold: int = 65) -> tuple:
+    """The middle of every face between an obstacle cell (>= occupied_threshold) and a free
+    one (0 .. threshold): ((n, 2) map-frame points (m), (n, 2) unit normals pointing from the
+    obstacle into the free cell). Row 0 at the smallest y."""
     occ = np.asarray(occupancy)
     rows, cols = occ.shape
     wall = occ >= occupied_threshold
     free = np.pad((occ >= 0) & ~wall, 1, constant_values=False)
-    out = []
+    points, normals = [], []
     for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0)):
         # obstacle cells whose neighbour (r + dr, c + dc) is free: a point on their shared edge
         r, c = np.nonzero(wall & free[1 + dr:1 + dr + rows, 1 + dc:1 + dc + cols])
-        out.append(np.column_stack([origin[0] + (c + 0.5 + 0.5 * dc) * resolution,
-                                    origin[1] + (r + 0.5 + 0.5 * dr) * resolution]))
-    return np.vstack(out)
+        points.append(np.column_stack([origin[0] + (c + 0.5 + 0.5 * dc) * resolution,
+                                       origin[1] + (r + 0.5 + 0.5 * dr) * resolution]))
+        normals.append(np.tile((float(dc), float(dr)), (len(r), 1)))
+    return np.vstack(points), np.vstack(normals)
 
 
 def _rotation3(yaw: float) -> np.ndarray:
@@ -98,7 +101,7 @@ class Localizer:
         self.s = settings
         self.odometry = odometry           # the wheel-slip figures of the odometry model
         self.separation = wheel_separation_m
-        self.surface = surface_points(occupancy, resolution, origin, settings.occupied_threshold)
+        self.surface, self.normals = surface_points(occupancy, resolution, origin, settings.occupied_threshold)
         if len(self.surface) < settings.matcher.min_points:
             raise ValueError(f"localization: the map has {len(self.surface)} wall faces next to free cells; "
                              f"at least {settings.matcher.min_points} are needed to match scans")
@@ -107,8 +110,10 @@ class Localizer:
             settings.matcher, search_xy_m=settings.relocalise_search_xy_m,
             search_yaw_rad=settings.relocalise_search_yaw_rad))
         self.pose = np.zeros(3)            # the base in the map at the last update
+        self.start = np.zeros(3)           # the last pose set from outside (reset returns to it)
         self.cov = np.diag([settings.initial_std_m ** 2] * 2 + [settings.initial_std_rad ** 2])
-        self.odom: Optional[np.ndarray] = None    # the odometry pose at the last update
+        self.odom: Optional[np.ndarray] = None    # the odometry pose at the last update ...
+        self.stamp = -math.inf                    # ... and its time (s)
         self.misses = 0                    # updates in a row without a fused match
         self.counts = dict(updates=0, fused=0, no_match=0, low_score=0, gated=0, relocalised=0, odom_jumps=0)
         self.match_ms: list[float] = []
@@ -122,10 +127,16 @@ class Localizer:
         if pose.shape != (3,) or not np.isfinite(pose).all():
             self.events.append(f"initial pose {pose.tolist()} refused: not three finite numbers")
             return
-        self.pose = pose.copy()
+        self.pose, self.start = pose.copy(), pose.copy()
         self.cov = np.diag([(std_m or self.s.initial_std_m) ** 2] * 2 + [(std_rad or self.s.initial_std_rad) ** 2])
         self.odom = None
         self.misses = 0
+
+    def reset(self, why: str) -> None:
+        """Back to the last pose set (time went backwards: a looping bag, a restarted simulation)."""
+        self.set_pose(self.start)
+        self.events.append(f"state cleared: {why}; back at ({self.start[0]:.2f}, {self.start[1]:.2f}, "
+                           f"{self.start[2]:.2f})")
 
     def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose) -> bool:
         """Returns whether the scan was matched (an update: fused or not)."""
@@ -137,7 +148,9 @@ class Localizer:
             step = between(self.odom, odom)
             if math.hypot(step[0], step[1]) < self.s.update_distance_m and abs(step[2]) < self.s.update_angle_rad:
                 return False
-            if math.hypot(step[0], step[1]) > 1.0 or abs(step[2]) > 1.0:
+            dt = max(stamp_s - self.stamp, 1e-3)
+            if math.hypot(step[0], step[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
+                    or abs(step[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1:
                 # a teleport or a base restart between updates: odometry says nothing; search wide
                 self.counts["odom_jumps"] += 1
                 self.events.append(f"odometry jumped by ({step[0]:.2f}, {step[1]:.2f}, {step[2]:.2f}) at "
@@ -145,7 +158,7 @@ class Localizer:
                 step = np.zeros(3)
                 self.misses = max(self.misses, self.s.lost_after)
             self._predict(step)
-        self.odom = odom.copy()
+        self.odom, self.stamp = odom.copy(), float(stamp_s)
         self._correct(np.asarray(points_base, float).reshape(-1, 2), stamp_s)
         return True
 
@@ -181,7 +194,8 @@ class Localizer:
 
     def _correct(self, points: np.ndarray, stamp_s: float) -> None:
         self.counts["updates"] += 1
-        near = np.hypot(*(self.surface - self.pose[:2]).T) <= self.s.reference_radius_m
+        to_robot = self.pose[:2] - self.surface
+        near = (np.hypot(*to_robot.T) <= self.s.reference_radius_m) & (np.sum(to_robot * self.normals, axis=1) > 0.0)
         reference = self.surface[near]
         lost = self.misses >= self.s.lost_after
         matcher = self.wide_matcher if lost else self.matcher
@@ -190,10 +204,10 @@ class Localizer:
             if len(points) >= self.s.matcher.min_points and len(reference) >= self.s.matcher.min_points else None
         self.match_ms.append(1e3 * (time.perf_counter() - t0))
         if match is None:
-            self._miss("no_match")
+            self._miss("no_match", matcher.last_failure or "too few points")
             return
         if match.score < (self.s.relocalise_min_score if lost else self.s.match_min_score):
-            self._miss("low_score")
+            self._miss("low_score", f"score {match.score:.2f}")
             return
         R = _rotation3(match.pose[2])
         meas_cov = R @ match.covariance @ R.T          # body frame -> map frame
@@ -210,7 +224,8 @@ class Localizer:
             return
         d2 = float(innovation @ np.linalg.solve(S, innovation))
         if d2 > self.s.match_gate_chi2:
-            self._miss("gated")
+            self._miss("gated", f"{math.hypot(*innovation[:2]):.2f} m / {innovation[2]:.2f} rad from the "
+                                f"prediction, Mahalanobis^2 {d2:.1f}")
             return
         K = self.cov @ np.linalg.inv(S)
         self.pose = self.pose + K @ innovation
@@ -220,9 +235,9 @@ class Localizer:
         self.counts["fused"] += 1
         self.misses = 0
 
-    def _miss(self, why: str) -> None:
-        self.counts[why] += 1
+    def _miss(self, kind: str, detail: str) -> None:
+        self.counts[kind] += 1
         self.misses += 1
         if self.misses == self.s.lost_after:
-            self.events.append(f"no usable map match for {self.misses} updates in a row (last: {why}): "
+            self.events.append(f"no usable map match for {self.misses} updates in a row (last: {kind}, {detail}): "
                                f"searching {self.s.relocalise_search_xy_m} m / {self.s.relocalise_search_yaw_rad} rad wide")

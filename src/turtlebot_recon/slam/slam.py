@@ -371,24 +371,3 @@ class Slam:
             self.graph.add_loop(j, key, between(self.estimates[j], match.pose), match.covariance)
             self.counts["loop_accepted"] += 1
             return
-
-
-@dataclass(frozen=True)
-class SlamNodeSettings:
-    """scripts/slam's parameters (config/slam.yaml)."""
-    map_frame: str = "map"
-    odom_frame: str = "odom"
-    base_frame: str = "base_footprint"
-    robot: str = "turtlebot3_waffle_pi"   # wheel separation for the odometry noise model
-    tf_rate_hz: float = 20.0              # map -> odom, from its own timer
-    transform_tolerance_s: float = 0.1    # map -> odom stamped this far ahead (slam_gmapping's)
-    tf_timeout_s: float = 0.1             # wait this long for odometry at a scan's stamp
-    output_dir: str = ""                  # ~save writes here ('' = $ROS_HOME/slam)
-    slam: SlamSettings = field(default_factory=SlamSettings)
-
-    def validate(self, src: str) -> None:
-        positive(src, self, "tf_rate_hz", "tf_timeout_s")
-        require(self.transform_tolerance_s >= 0.0, src, "transform_tolerance_s", "must be >= 0")
-        require(len({self.map_frame, self.odom_frame, self.base_frame}) == 3, src, "map_frame",
-                "map_frame, odom_frame and base_frame must differ")
-
