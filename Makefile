@@ -30,6 +30,7 @@ help:
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
+	@echo "                 (MAP=map.yaml [INITIAL_POSE='x y yaw']: track the log in that saved map instead)"
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
 	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM -> output/bench/slam.json"
 	@echo "                 (LIVE=0 offline parts only, SEEDS=N, RESUME=1, DRIVE_S=sim s per recorded drive)"
@@ -121,7 +122,8 @@ bench-explore: build
 
 slam-log: build
 	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }
-	@$(ENV) python tools/slam_log.py --log $(LOG) --output $(OUTPUT) --robot $(ROBOT)
+	@$(ENV) python tools/slam_log.py --log $(LOG) --output $(OUTPUT) --robot $(ROBOT) \
+	  $(if $(MAP),--map $(MAP)) $(if $(INITIAL_POSE),--initial-pose $(INITIAL_POSE))
 
 slam-eval: setup
 	@[ -n "$(TRAJ)" ] && [ -n "$(GT)" ] || { echo "slam-eval: give TRAJ=FILE and GT=FILE (TUM)"; exit 2; }

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """SLAM over a recorded log, faster than real time (``make slam-log LOG=FILE OUTPUT=DIR``).
 
-    tools/slam_log.py --log FILE --output DIR [--robot NAME] [--config YAML]
+    tools/slam_log.py --log FILE --output DIR [--robot NAME] [--config YAML] [--map YAML [--initial-pose X Y YAW]]
 
 FILE is a rosbag (``.bag``: /scan, /odom, optional /imu) or a CARMEN log (FLASER, ROBOTLASER1,
 ODOM lines). DIR receives trajectory.tum (keyframes, optimised), odometry.tum, map.pgm/.yaml and
 graph.g2o. The robot's YAML gives the wheel separation (odometry noise model) and, for a bag,
 the lidar's mounting. SLAM parameters: the ``slam:`` block of config/slam.yaml unless --config.
-A log that cannot be used: one line saying why, exit status 1.
+With --map (``make slam-log MAP=...``) the log is tracked in that saved map instead (mode
+localization, the ``localization:`` block): DIR receives trajectory.tum (the pose at every
+match) and odometry.tum. A log or a map that cannot be used: one line saying why, exit status 1.
 """
 import argparse
 import sys
@@ -21,7 +23,7 @@ except ImportError:
 from turtlebot_recon.config import ConfigError, from_dict, load_yaml
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.slam.logs import LogError
-from turtlebot_recon.slam.offline import run_log
+from turtlebot_recon.slam.offline import localize_log, run_log
 from turtlebot_recon.slam.node_settings import SlamNodeSettings
 
 CONFIG = Path(__file__).resolve().parents[1] / "config" / "slam.yaml"
@@ -33,16 +35,30 @@ def main(argv=None) -> int:
     p.add_argument("--output", required=True, help="directory for the results")
     p.add_argument("--robot", default="turtlebot3_burger", help="robot YAML name or path (default turtlebot3_burger)")
     p.add_argument("--config", default=str(CONFIG), help="slam parameters (config/slam.yaml)")
+    p.add_argument("--map", help="localise in this saved map (map_server YAML) instead of mapping")
+    p.add_argument("--initial-pose", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("X", "Y", "YAW"),
+                   help="with --map: the start pose in the map (m, m, rad; default 0 0 0)")
     a = p.parse_args(argv)
     try:
         node = from_dict(SlamNodeSettings, load_yaml(a.config), a.config)
         robot = load_robot(a.robot)
         lid = robot.lidar
-        result = run_log(a.log, a.output, node.slam, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
-                         log=lambda line: print(line, file=sys.stderr))
-    except (ConfigError, LogError, OSError, ValueError) as exc:
+        if a.map:
+            result = localize_log(a.log, a.map, a.output, node.localization, robot.wheel_separation_m,
+                                  (lid.x_m, lid.y_m, 0.0), tuple(a.initial_pose),
+                                  log=lambda line: print(line, file=sys.stderr))
+        else:
+            result = run_log(a.log, a.output, node.slam, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
+                             log=lambda line: print(line, file=sys.stderr))
+    except (ConfigError, LogError, OSError, ValueError, KeyError, TypeError) as exc:
         print(f"slam_log: {exc}", file=sys.stderr)
         return 1
+    if a.map:
+        st = result.stats
+        print(f"slam_log: {result.scans} scans, {st['updates']} matched to {a.map} ({st['fused']} fused, "
+              f"{st['relocalised']} relocalisations); {result.log_seconds:.0f} s of log in "
+              f"{result.wall_seconds:.1f} s ({result.speedup:.1f}x real time); written to {a.output}")
+        return 0
     st = result.stats
     print(f"slam_log: {result.scans} scans ({result.scans_dropped} without odometry), {result.keyframes} keyframes, "
           f"loop closures {st['loop_accepted']} of {st['loop_tried']} accepted; {result.log_seconds:.0f} s of log "

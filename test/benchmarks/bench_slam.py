@@ -41,7 +41,8 @@ from turtlebot_recon.robot import load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 from turtlebot_recon.sim.recorder import record_run  # noqa: E402
 from turtlebot_recon.slam.datasets import run_city10000  # noqa: E402
-from turtlebot_recon.slam.offline import run_log  # noqa: E402
+from turtlebot_recon.slam.localization import LocalizationSettings  # noqa: E402
+from turtlebot_recon.slam.offline import localize_log, run_log  # noqa: E402
 from turtlebot_recon.slam.slam import SlamSettings  # noqa: E402
 
 WORLDS = ("house", "office", "maze")
@@ -64,6 +65,7 @@ def recorded(drive_s: float, seed: int) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix="bench_slam_"))
     for w in WORLDS:
         world = load_world(w)
+        runs = {}
         for level, slip in DRIFTS.items():
             d = tmp / f"{w}_{level}"
             run = record_run(world, robot, drive_s, seed=seed, odom_slip=slip, out_dir=d, bag=True)
@@ -88,9 +90,24 @@ def recorded(drive_s: float, seed: int) -> dict:
                 "isam2_ms_max": st.get("isam2_ms_max"), "scan_match_ms_median": st.get("scan_match_ms_median"),
                 "rss_growth_mb": grown}
             timing[f"{w}/{level}"] = res.keyframes
+            runs[level] = (run, d)
             print(f"[bench-slam] {w:7s} {level:8s} odom {a_odom.rmse_m:.3f} m  slam {a_slam.rmse_m:.3f} m  "
                   f"precision {prec['map_precision_occupied']:.3f}  loops {st['loop_accepted']}/{st['loop_tried']}  "
                   f"{res.speedup:.0f}x real time", flush=True)
+        # mode localization: the 3x-drift drive tracked in the map SLAM made of the default one
+        # (both start where the world starts: the same map frame)
+        run, d = runs["3x"]
+        loc = localize_log(run.bag, runs["default"][1] / "slam" / "map.yaml", d / "localization",
+                           LocalizationSettings(), robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
+                           log=lambda *a: None)
+        a_loc = ate(read_tum(d / "localization" / "trajectory.tum"), read_tum(run.ground_truth), 0.02)
+        st = loc.stats
+        out[f"{w}/localization"] = {
+            "ate_m": a_loc.rmse_m, "ate_max_m": a_loc.max_m, "updates": st["updates"],
+            "fused_fraction": st["fused"] / max(st["updates"], 1), "relocalised": st["relocalised"],
+            "scan_match_ms_median": st.get("scan_match_ms_median"), "speedup": loc.speedup}
+        print(f"[bench-slam] {w:7s} localization (3x drift in the default run's SLAM map) ATE {a_loc.rmse_m:.3f} m "
+              f"(max {a_loc.max_m:.3f}), fused {st['fused']}/{st['updates']}", flush=True)
     return out
 
 
@@ -125,6 +142,10 @@ def live(seeds: int, resume: bool, budget: float) -> dict:
 def summary(rec: dict, city: dict, runs: dict) -> dict:
     fig = {}
     default = [v for k, v in rec.items() if k.endswith("/default")]
+    located = [v for k, v in rec.items() if k.endswith("/localization")]
+    if located:
+        fig["localization_ate_m_max"] = max(v["ate_m"] for v in located)
+        fig["localization_fused_fraction_min"] = min(v["fused_fraction"] for v in located)
     fig["offline_ate_m_default_max"] = max(v["ate_slam_m"] for v in default)
     fig["offline_ate_ratio_odom_over_slam_min"] = min(v["ratio"] for v in default)
     fig["offline_map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in default)
@@ -132,13 +153,14 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
         rows = [v for k, v in rec.items() if k.endswith(f"/{level}")]
         fig[f"offline_ate_m_{level}_max"] = max(v["ate_slam_m"] for v in rows)
         fig[f"offline_ate_odom_m_{level}_max"] = max(v["ate_odom_m"] for v in rows)
-    largest = max(rec.values(), key=lambda v: v["keyframes"])
+    drives = {k: v for k, v in rec.items() if not k.endswith("/localization")}
+    largest = max(drives.values(), key=lambda v: v["keyframes"])
     for k in ("isam2_ms_median", "isam2_ms_p99", "isam2_ms_max"):
         fig[k] = largest[k]
     fig["isam2_keyframes_largest_run"] = largest["keyframes"]
-    fig["scan_match_ms_median"] = statistics.median(v["scan_match_ms_median"] for v in rec.values())
+    fig["scan_match_ms_median"] = statistics.median(v["scan_match_ms_median"] for v in drives.values())
     fig["memory_mb_per_1000_keyframes"] = 1000.0 * largest["rss_growth_mb"] / max(largest["keyframes"], 1)
-    fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in rec.values())
+    fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in drives.values())
     fig.update({k: v for k, v in city.items() if k.startswith("city10000_")})
     slam = [v for k, v in runs.items() if k.startswith("slam/") and isinstance(v, dict)]
     odom = [v for k, v in runs.items() if k.startswith("odom/") and isinstance(v, dict)]

@@ -103,3 +103,26 @@ def test_bad_input_is_said_and_loses_nothing(tmp_path):
     assert any("refused" in e for e in events) and any("not finite" in e for e in events)
     with pytest.raises(ValueError, match="wall faces"):
         Localizer(LocalizationSettings(), np.zeros((20, 20), np.int8), 0.05, (0.0, 0.0), 0.16)
+
+
+def test_localize_log_tracks_a_recorded_drive_in_the_map(tmp_path):
+    """The offline path (slam.offline.localize_log): a recorded CARMEN drive with 3x drift, tracked
+    in the world's own map from the start pose, against the recorder's ground truth."""
+    from turtlebot_recon.evaluation.trajectory_metrics import ate, read_tum
+    from turtlebot_recon.sim import load_world
+    from turtlebot_recon.sim.recorder import record_run
+    from turtlebot_recon.slam.offline import localize_log
+    path = loop_world(tmp_path)
+    world = load_world(path)
+    robot = load_robot("turtlebot3_burger")
+    run = record_run(world, robot, 90.0, seed=3, odom_slip=0.03, out_dir=tmp_path / "rec", bag=False)
+    res = localize_log(run.carmen, path, tmp_path / "loc", wheel_separation_m=robot.wheel_separation_m,
+                       initial_pose=world.start, log=lambda *a: None)
+    gt = read_tum(run.ground_truth)                           # in the start frame
+    gt_map = np.array([(t, *compose(world.start, p)) for t, *p in gt])
+    a_loc = ate(read_tum(tmp_path / "loc" / "trajectory.tum"), gt_map, 0.02)
+    odo = read_tum(run.odometry)
+    a_odom = ate(odo, gt, 0.02)
+    assert a_loc.matched > 100 and res.stats["fused"] >= 0.9 * res.stats["updates"], res.stats
+    assert a_loc.rmse_m < 0.02, a_loc
+    assert a_odom.max_m > 3 * a_loc.max_m                       # the drift is real

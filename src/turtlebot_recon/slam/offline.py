@@ -22,9 +22,10 @@ import numpy as np
 from ..evaluation.trajectory_metrics import write_tum
 from ..geometry import between, compose, transform_points, wrap_angle
 from ..mapping.grid import GridSettings, make_grid
-from ..mapping.map_io import save_map
+from ..mapping.map_io import load_map, save_map
 from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump, read_log
 from .scan_matching import scan_points
+from .localization import LocalizationSettings, Localizer
 from .slam import Slam, SlamSettings
 
 
@@ -68,40 +69,24 @@ class _OdometryTrack:
         return np.array([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * wrap_angle(b[2] - a[2])])
 
 
-def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_separation_m: float = 0.16,
-            lidar_offset=(0.0, 0.0, 0.0), grid: GridSettings = GridSettings(), log=print) -> OfflineResult:
-    """SLAM over the log at ``path``; writes trajectory.tum, odometry.tum, map.pgm/.yaml and
-    graph.g2o into ``output_dir``."""
-    out = Path(output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    reader = read_log(path)
-    slam = Slam(settings, wheel_separation_m)
-    odom = _OdometryTrack()
-    pending: list = []                 # bag scans waiting for odometry after their stamp
-    scans: dict = {}                   # keyframe stamp -> (ranges, layout), for the map
-    odometry_rows: list = []
-    dropped = 0
-    first = last = None
-    t0 = time.perf_counter()
-
-    def use(rec: LaserRecord, pose, offset) -> None:
-        pts = scan_points(rec.ranges, rec.angle_min, rec.angle_increment, rec.range_min, rec.range_max)
-        base = transform_points(offset, pts)
-        odometry_rows.append((rec.stamp_s, *pose))
-        if slam.add_scan(rec.stamp_s, base, pose):
-            scans[rec.stamp_s] = (rec, offset)
-
+def _feed(reader, lidar_offset, on_scan, on_imu, on_reset, log, events) -> tuple:
+    """Every scan of the log with the odometry pose at its stamp and the lidar's mounting:
+    ``on_scan(rec, pose, offset)``; gyro samples to ``on_imu``; a jump back in time clears the
+    state (``on_reset(why)``). ``events()`` gives the core's lines to log after each record.
+    Returns (scans dropped for want of odometry, first stamp, last stamp)."""
+    odom, pending = _OdometryTrack(), []   # bag scans waiting for odometry after their stamp
+    dropped, first, last = 0, None, None
     for rec in reader:
         if isinstance(rec, TimeJump):
-            slam.reset(f"time went back from {rec.previous_s:.3f} s to {rec.stamp_s:.3f} s in the log")
-            odom, pending, scans, odometry_rows = _OdometryTrack(), [], {}, []
+            on_reset(f"time went back from {rec.previous_s:.3f} s to {rec.stamp_s:.3f} s in the log")
+            odom, pending = _OdometryTrack(), []
             continue
         stamp = getattr(rec, "stamp_s", None)
         if stamp is not None:
             first = stamp if first is None else first
             last = stamp
         if isinstance(rec, ImuRecord):
-            slam.add_imu(rec.stamp_s, rec.yaw_rate)
+            on_imu(rec.stamp_s, rec.yaw_rate)
         elif isinstance(rec, OdomRecord):
             odom.add(rec)
             while pending and odom.t and pending[0].stamp_s <= odom.t[-1]:
@@ -110,17 +95,47 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
                 if p is None:
                     dropped += 1
                 else:
-                    use(r, p, tuple(lidar_offset))
+                    on_scan(r, p, tuple(lidar_offset))
         elif isinstance(rec, LaserRecord):
             if rec.odom_pose is not None:
                 offset = tuple(between(rec.odom_pose, rec.laser_pose)) if rec.laser_pose is not None \
                     else tuple(lidar_offset)
-                use(rec, np.asarray(rec.odom_pose, float), offset)
+                on_scan(rec, np.asarray(rec.odom_pose, float), offset)
             else:
                 pending.append(rec)
-        for line in slam.take_events():
+        for line in events():
             log(f"slam: {line}")
-    dropped += len(pending)
+    return dropped + len(pending), first, last
+
+
+def _base_points(rec: LaserRecord, offset) -> np.ndarray:
+    pts = scan_points(rec.ranges, rec.angle_min, rec.angle_increment, rec.range_min, rec.range_max)
+    return transform_points(offset, pts)
+
+
+def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_separation_m: float = 0.16,
+            lidar_offset=(0.0, 0.0, 0.0), grid: GridSettings = GridSettings(), log=print) -> OfflineResult:
+    """SLAM over the log at ``path``; writes trajectory.tum, odometry.tum, map.pgm/.yaml and
+    graph.g2o into ``output_dir``."""
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    reader = read_log(path)
+    slam = Slam(settings, wheel_separation_m)
+    scans: dict = {}                   # keyframe stamp -> (ranges, layout), for the map
+    odometry_rows: list = []
+    t0 = time.perf_counter()
+
+    def use(rec: LaserRecord, pose, offset) -> None:
+        odometry_rows.append((rec.stamp_s, *pose))
+        if slam.add_scan(rec.stamp_s, _base_points(rec, offset), pose):
+            scans[rec.stamp_s] = (rec, offset)
+
+    def reset(why: str) -> None:
+        slam.reset(why)
+        scans.clear()
+        odometry_rows.clear()
+
+    dropped, first, last = _feed(reader, lidar_offset, use, slam.add_imu, reset, log, slam.take_events)
     wall = time.perf_counter() - t0
 
     if not slam.keyframes:
@@ -144,3 +159,37 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
     return OfflineResult(keyframes=len(slam.keyframes), scans=len(odometry_rows), scans_dropped=dropped,
                          log_seconds=(last - first) if first is not None else 0.0, wall_seconds=wall,
                          resets=slam.counts["resets"], stats=slam.stats(), log_summary=reader.summary())
+
+
+def localize_log(path, map_file, output_dir, settings: LocalizationSettings = LocalizationSettings(),
+                 wheel_separation_m: float = 0.16, lidar_offset=(0.0, 0.0, 0.0), initial_pose=(0.0, 0.0, 0.0),
+                 log=print) -> OfflineResult:
+    """mode localization over the log at ``path``: tracks the robot in ``map_file`` (a
+    map_server YAML) from ``initial_pose``; writes trajectory.tum (the pose at every match) and
+    odometry.tum into ``output_dir``. ``stats`` holds the localiser's counts."""
+    out = Path(output_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        occupancy, resolution, origin = load_map(map_file)
+    except (OSError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"cannot load map {str(map_file)!r}: {exc}") from None
+    loc = Localizer(settings, occupancy, resolution, origin, wheel_separation_m)
+    loc.set_pose(initial_pose)
+    reader = read_log(path)
+    matched, odometry_rows = [], []
+    t0 = time.perf_counter()
+
+    def use(rec: LaserRecord, pose, offset) -> None:
+        odometry_rows.append((rec.stamp_s, *pose))
+        if loc.add_scan(rec.stamp_s, _base_points(rec, offset), pose):
+            matched.append((rec.stamp_s, *loc.pose))
+
+    dropped, first, last = _feed(reader, lidar_offset, use, lambda *_: None, loc.reset, log, loc.take_events)
+    wall = time.perf_counter() - t0
+    if not matched:
+        raise ValueError(f"{path}: no scan with odometry in the log ({reader.summary()})")
+    write_tum(out / "trajectory.tum", np.array(matched, float))
+    write_tum(out / "odometry.tum", np.array(odometry_rows, float).reshape(-1, 4))
+    return OfflineResult(keyframes=len(matched), scans=len(odometry_rows), scans_dropped=dropped,
+                         log_seconds=(last - first) if first is not None else 0.0, wall_seconds=wall,
+                         resets=0, stats=loc.stats(), log_summary=reader.summary())
