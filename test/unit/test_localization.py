@@ -46,7 +46,8 @@ def test_tracks_the_robot_in_the_saved_map_with_drifting_odometry(tmp_path, offs
     occ, res, origin = load_map(path)
     world = load_world(path)
     robot = load_robot("turtlebot3_burger")
-    sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.03, seed=7))
+    sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.03, odom_heading="wheels",
+                                              seed=7))
     start = np.array(sim.pose)
     loc = Localizer(LocalizationSettings(), occ, res, origin, robot.wheel_separation_m)
     loc.set_pose(compose(start, offset))
@@ -115,7 +116,8 @@ def test_localize_log_tracks_a_recorded_drive_in_the_map(tmp_path):
     path = loop_world(tmp_path)
     world = load_world(path)
     robot = load_robot("turtlebot3_burger")
-    run = record_run(world, robot, 90.0, seed=3, odom_slip=0.03, out_dir=tmp_path / "rec", bag=False)
+    run = record_run(world, robot, 90.0, seed=3, odom_slip=0.03, out_dir=tmp_path / "rec", bag=False,
+                     odom_heading="wheels")
     res = localize_log(run.carmen, path, tmp_path / "loc", wheel_separation_m=robot.wheel_separation_m,
                        initial_pose=world.start, log=lambda *a: None)
     gt = read_tum(run.ground_truth)                           # in the start frame

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from conftest import drive
+from turtlebot_recon.geometry import wrap_angle
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.sim.drive import DiffDrive, WheelOdometry
 
@@ -136,3 +137,20 @@ def test_sensor_and_clock_schedules(room_world, make_sim):
         for name in sim.step():
             counts[name] = counts.get(name, 0) + 1
     assert counts == {"scan": 5, "odom": 33, "imu": 50, "ground_truth": 10, "clock": 25}
+
+
+def test_odometry_heading_follows_the_gyro_as_the_turtlebots_drivers_publish_it(room_world, make_sim):
+    """With slip, odom_heading gyro (the default) keeps odometry's heading on the gyro's (a few
+    mrad after turning back and forth), while the wheels' distance still drifts; wheel-only
+    heading wanders by centiradians over the same turns."""
+    errors = {}
+    for heading in ("gyro", "wheels"):
+        sim = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.05, odom_heading=heading, seed=3)
+        worst = 0.0
+        for k in range(1200):                        # 12 s: turn left and right in place, 2 s each
+            sim.set_command(0.0, 1.5 if (k // 200) % 2 == 0 else -1.5)
+            sim.step()
+            worst = max(worst, abs(wrap_angle(sim.odom.yaw - wrap_angle(sim.pose[2] - sim.world.start[2]))))
+        errors[heading] = worst
+    assert errors["gyro"] < 0.005, errors
+    assert errors["wheels"] > 4 * errors["gyro"], errors

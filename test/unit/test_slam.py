@@ -79,7 +79,9 @@ def two_laps(tmp_path_factory):
     from turtlebot_recon.sim.simulator import SimSettings, Simulator
     world = load_world(loop_world(tmp_path_factory.mktemp("slam")))
     robot = load_robot("turtlebot3_burger")
-    sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.03, seed=4))
+    # wheel-only heading (a base without the TurtleBots' gyro fusion): the harder case
+    sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.03, odom_heading="wheels",
+                                              seed=4))
     slam = Slam(SlamSettings(), robot.wheel_separation_m)
     stamps, truth, odom = drive(sim, LOOP, laps=2, slam=slam)
     sim.close()
@@ -112,7 +114,8 @@ def test_imu_fusion_improves_the_heading(tmp_path):
     robot = load_robot("turtlebot3_burger")
     errors = {}
     for use_imu in (False, True):
-        sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.05, seed=7))
+        sim = Simulator(world, robot, SimSettings(camera_rate_hz=0.0, odom_slip_std_sqrt_m=0.05, odom_heading="wheels",
+                                                  seed=7))
         slam = Slam(SlamSettings(use_imu=use_imu, loop_every_keyframes=10 ** 6), robot.wheel_separation_m)
         slam.matcher.match = lambda *a, **k: None          # odometry (and gyro) alone
         stamps, truth, _ = drive(sim, LOOP[:2], laps=1, slam=slam)

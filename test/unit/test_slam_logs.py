@@ -179,7 +179,8 @@ def runs(tmp_path_factory):
     from conftest import room, write_world
     d = tmp_path_factory.mktemp("runs")
     world = write_world(d, "room", room(4.0, 3.0), start=[1.0, 1.5, 0.3])
-    return {slip: record_run(world, "turtlebot3_burger", 20.0, seed=2, odom_slip=slip, out_dir=d / f"slip{slip}")
+    return {slip: record_run(world, "turtlebot3_burger", 20.0, seed=2, odom_slip=slip, out_dir=d / f"slip{slip}",
+                              odom_heading="wheels")
             for slip in (0.0, 0.02)}
 
 

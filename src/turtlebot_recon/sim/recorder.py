@@ -56,7 +56,7 @@ def _rosbag_importable() -> bool:
 
 
 def record_run(world: Union[str, Path, World], robot: Union[str, RobotSpec], seconds: float,
-               seed: int = 0, odom_slip: float = 0.0, out_dir: Union[str, Path] = ".",
+               seed: int = 0, odom_slip: float = 0.0, out_dir: Union[str, Path] = ".", odom_heading: str = "gyro",
                commands: Optional[Sequence[Command]] = None, bag: bool = True) -> RecordedRun:
     """Drive ``seconds`` of sim time with the wander (or ``commands``, then stop) and write the
     logs; returns their paths. ``bag=False`` or no rosbag module: no bag."""
@@ -64,7 +64,8 @@ def record_run(world: Union[str, Path, World], robot: Union[str, RobotSpec], sec
     robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    sim = Simulator(world, robot, SimSettings(rtf=0.0, odom_slip_std_sqrt_m=odom_slip, camera_rate_hz=0.0,
+    sim = Simulator(world, robot, SimSettings(rtf=0.0, odom_slip_std_sqrt_m=odom_slip, odom_heading=odom_heading,
+                                              camera_rate_hz=0.0,
                                               seed=seed))
     try:
         records, truth, odom = _drive(sim, seconds, commands)

@@ -58,6 +58,10 @@ class SimSettings:
                                          # once the last is this old (sim s); 0 = never
     cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
+    odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
+                                         # TurtleBot3's OpenCR firmware and kobuki_node's default
+                                         # use_imu_heading publish) | wheels (wheel-only heading:
+                                         # a base without that fusion); slip 0: exact odometry
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
     ground_truth_rate_hz: float = 10.0
@@ -73,6 +77,8 @@ class SimSettings:
         require(self.cmd_sync_wait_s >= 0.0, src, "cmd_sync_wait_s", "must be >= 0")
         require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
         require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
+        require(self.odom_heading in ("gyro", "wheels"), src, "odom_heading",
+                f"must be gyro or wheels, got {self.odom_heading!r}")
         require(self.camera_rate_hz >= 0.0, src, "camera_rate_hz", "must be >= 0")
         require(self.camera_renderer in ("egl", "tiny"), src, "camera_renderer", "must be egl or tiny")
 
@@ -307,15 +313,18 @@ class Simulator:
         self._touch(hit, hit is not None or (self._contact and self._touching(moved)))
         forward = (moved[0] - x) * math.cos(mid) + (moved[1] - y) * math.sin(mid)
         turn = wrap_angle(moved[2] - yaw)
-        self.odom.update(forward, turn, self.dt)
+        # The IMU reports the mean rate over its sample period (a real gyro's filter and
+        # decimation), plus noise: integrating its samples gives the heading change up to the
+        # noise, as on a robot. The orientation integrates every step; with slip on, odometry
+        # takes its heading from it, as the TurtleBots' drivers do (WheelOdometry).
+        gyro_turn = turn + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps) * self.dt
+        gyro_heading = self.settings.odom_slip_std_sqrt_m > 0 and self.settings.odom_heading == "gyro"
+        self.odom.update(forward, turn, self.dt, gyro_turn if gyro_heading else None)
         self.twist = (forward / self.dt, turn / self.dt)
         self.distance_m += abs(forward)
         self.pose = moved
-        # The IMU reports the mean rate over its sample period (a real gyro's filter and
-        # decimation), plus noise: integrating its samples gives the heading change up to the
-        # noise, as on a robot. The orientation integrates every step.
         self._gyro_turn += turn
-        self.gyro_yaw = wrap_angle(self.gyro_yaw + turn + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps) * self.dt)
+        self.gyro_yaw = wrap_angle(self.gyro_yaw + gyro_turn)
         self.steps += 1
         due = [name for name, period in self._periods.items() if self.steps % period == 0]
         if "imu" in due:
