@@ -13,6 +13,7 @@ ENV    := source $(TOP)/tools/env.sh &&
 WORLD    ?= house
 ROBOT    ?= turtlebot3_waffle_pi
 STRATEGY ?= recon
+CONTROLLER ?= pure_pursuit
 MISSION  ?= auto
 SLAM     ?= false
 RTF      ?= 0
@@ -27,6 +28,7 @@ OUTPUT   ?= output/run
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         explore WORLD=$(WORLD) headless; map, plots and report in OUTPUT=$(OUTPUT)"
+	@echo "                 (ROBOT=$(ROBOT) STRATEGY=$(STRATEGY) CONTROLLER=$(CONTROLLER): pure_pursuit | dwa | pd)"
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
@@ -77,9 +79,9 @@ test: build
 	$(ENV) python -m pytest test -q -p no:cacheprovider
 
 run: build
-	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), mission $(MISSION), slam $(SLAM), headless; output in $(OUTPUT)"
+	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), controller $(CONTROLLER), mission $(MISSION), slam $(SLAM), headless; output in $(OUTPUT)"
 	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
-	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) mission:=$(MISSION) slam:=$(SLAM) rtf:=$(RTF) seed:=$(SEED) \
+	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) controller:=$(CONTROLLER) mission:=$(MISSION) slam:=$(SLAM) rtf:=$(RTF) seed:=$(SEED) \
 	  budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
 
 wander: build

@@ -134,3 +134,53 @@ def ray_cells(origin, radius, beams, shape):
                 break
             ray.append((r, c, (dr, dc) == (0, 0)))
         yield ray
+
+
+# ---------------------------------------------------------------- controllers in closed loop
+
+def drive_controller(controller, robot, occ, path, pose, seconds, goal_yaw=None, res=0.05):
+    """Close the loop at 10 Hz between ``controller`` (the control contract) and a unicycle whose
+    speeds follow the command within the robot's accelerations (10 substeps per period), on the
+    grid ``occ`` (origin (0, 0)), until the controller reports arrived, blocked or no_path.
+    Returns (the poses of every substep (n, 3), the outputs)."""
+    from turtlebot_recon.control import ControlInput
+    dt, sub = 0.1, 10
+    x, y, yaw = pose
+    v = w = 0.0
+    costmap = np.zeros(occ.shape, np.uint8)
+    poses, outputs = [(x, y, yaw)], []
+    for k in range(int(round(seconds / dt))):
+        out = controller.compute(ControlInput(
+            now_s=k * dt, pose=(x, y, yaw), velocity=(v, w), path=np.asarray(path, float),
+            goal_yaw=goal_yaw, occupancy=occ, costmap=costmap, resolution=res, origin=(0.0, 0.0)))
+        outputs.append(out)
+        if out.status in ("arrived", "blocked", "no_path"):
+            break
+        for _ in range(sub):
+            h = dt / sub
+            v += np.clip(out.linear_mps - v, -robot.max_linear_accel_mps2 * h, robot.max_linear_accel_mps2 * h)
+            w += np.clip(out.angular_radps - w, -robot.max_angular_accel_radps2 * h,
+                         robot.max_angular_accel_radps2 * h)
+            x, y, yaw = x + v * math.cos(yaw) * h, y + v * math.sin(yaw) * h, yaw + w * h
+            poses.append((x, y, yaw))
+    return np.array(poses), outputs
+
+
+def walled_room(width_cells=80, height_cells=60) -> np.ndarray:
+    """int8 occupancy: a walled room, free area [0.05, 0.05 (width - 1)] x [0.05, 0.05 (height - 1)] m."""
+    occ = np.zeros((height_cells, width_cells), np.int8)
+    occ[0, :] = occ[-1, :] = 100
+    occ[:, 0] = occ[:, -1] = 100
+    return occ
+
+
+def corridor_ahead(width_m: float, res: float = 0.01, length_m: float = 3.0) -> np.ndarray:
+    """int8 occupancy at ``res`` m per cell, origin (0, 0): a 2 x 1 m walled open area x in
+    [0, 0.6) m, y in [0.5, 1.5) m, then a corridor along +x to ``length_m`` of free width
+    ``width_m`` centred on y = 1.0 m."""
+    n = lambda m: int(round(m / res))
+    occ = np.full((n(2.0), n(length_m)), 100, np.int8)
+    occ[n(0.5):n(1.5), n(0.05):n(0.6)] = 0
+    lo = n(1.0) - n(width_m) // 2
+    occ[lo:lo + n(width_m), n(0.05):n(length_m) - 1] = 0
+    return occ

@@ -20,6 +20,7 @@ void register_lattice(py::module_& m);    // lattice.cpp
 void register_perception(py::module_& m);  // camera_coverage.cpp
 void register_slam(py::module_& m);  // scan_matcher.cpp
 void register_body_field(py::module_& m);  // body_field.cpp (the controllers' obstacle test)
+void register_dwa(py::module_& m);  // dwa.cpp (the dynamic window approach)
 
 namespace {
 
@@ -66,4 +67,5 @@ PYBIND11_MODULE(_native, m) {
   register_perception(m);
   register_slam(m);
   register_body_field(m);
+  register_dwa(m);
 }

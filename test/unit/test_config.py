@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from turtlebot_recon.behavior.supervisor import SupervisorSettings
+from turtlebot_recon.control import CONTROLLERS, DEFAULT_CONTROLLER, DwaSettings, PdSettings
 from turtlebot_recon.config import ConfigError, from_dict, from_params, load_yaml
 from turtlebot_recon.evaluation.evaluator import EvaluatorSettings
 from turtlebot_recon.evaluation.oracle import OracleDriverSettings
@@ -39,6 +40,8 @@ BLOCKS = {
     ("mapper.yaml", ()): MapperSettings,
     ("navigator.yaml", ()): NavigationSettings,
     ("lattice.yaml", ()): LatticeSettings,
+    ("dwa.yaml", ()): DwaSettings,
+    ("pd.yaml", ()): PdSettings,
     ("supervisor.yaml", ()): SupervisorSettings,
     ("trajectory.yaml", ()): TrajectorySettings,
     ("evaluator.yaml", ()): EvaluatorSettings,
@@ -53,7 +56,7 @@ BLOCKS = {
     ("slam.yaml", ()): SlamNodeSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
-OWN_FILE = {LatticeSettings: "lattice.yaml"}
+OWN_FILE = {LatticeSettings: "lattice.yaml", DwaSettings: "dwa.yaml", PdSettings: "pd.yaml"}
 # Keys that choose rather than set: (file, key path) -> (the choices, the default).
 SELECTORS = {("explorer.yaml", ("strategy",)): (set(STRATEGIES), DEFAULT_STRATEGY)}
 
@@ -154,3 +157,20 @@ def test_unknown_and_bad_parameters():
     assert s.rtf == 3.0 and len(warnings) == 1 and "colour" in warnings[0]
     with pytest.raises(ConfigError, match="no file"):
         load_robot("turtlebot9")
+
+
+def test_every_controller_has_a_settings_block_and_the_default_is_one():
+    # navigator.yaml names the default controller; every controller's settings class is a
+    # NavigationSettings field (the pure pursuit's is ``follower``), loaded from its own file
+    # (OWN_FILE) or navigator.yaml's block, and the launch file loads each own file.
+    assert load_yaml(CONFIG / "navigator.yaml")["controller"] == DEFAULT_CONTROLLER in CONTROLLERS
+    hints = typing.get_type_hints(NavigationSettings)
+    for name, (settings_cls, _) in CONTROLLERS.items():
+        assert settings_cls in hints.values(), name
+        assert NavigationSettings(controller=name).controller_settings() == settings_cls()
+    launch = (TOP / "launch" / "navigator.launch").read_text()
+    for cls, file in OWN_FILE.items():
+        if cls is not LatticeSettings:
+            assert f"config/{file}" in launch, file
+    with pytest.raises(ConfigError, match="navigator/controller: unknown controller 'mpc'; choose one of"):
+        from_dict(NavigationSettings, {"controller": "mpc"}, "navigator")

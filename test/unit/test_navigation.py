@@ -363,3 +363,23 @@ def test_a_wedged_robot_drives_an_escape_arc_then_to_the_goal():
     _, commands = drive_west(*beside_east_wall(0.19))
     # it starts on the forward arc: 0.1 m/s, turning left at 0.1 rad/s (1 m radius)
     assert commands[0][1] == pytest.approx((0.1, 0.1))
+
+
+# ---------------------------------------------------------------- every controller
+
+@pytest.mark.parametrize("controller", ["pure_pursuit", "dwa", "pd"])
+def test_each_controller_drives_the_navigator_to_a_goal(controller):
+    # The same plan for every controller (controller:=NAME); the waffle_pi from the west room,
+    # facing away, to the east room through the 0.45 m gap its box fits (0.072 m to spare).
+    occ = two_rooms(9)
+    nav = Navigation(NavigationSettings(controller=controller), WAFFLE)
+    assert type(nav.controller).__name__ == {"pure_pursuit": "PurePursuit", "dwa": "DwaController",
+                                             "pd": "PdController"}[controller]
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(3.5, 1.5)
+    poses, commands = drive_robot(nav, WAFFLE, occ, (0.8, 1.2, 2.5), 90.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.hypot(poses[-1, 0] - 3.5, poses[-1, 1] - 1.5) <= 0.1 + 0.03
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005       # 0 collisions
+    v = np.array([c[1][0] for c in commands])
+    assert np.isfinite(v).all() and v.max() <= WAFFLE.max_linear_mps + 1e-12

@@ -1,6 +1,6 @@
 """Control: the controller contract and its implementations (ROS-free, never blocking).
 
-Every controller (the pure pursuit follower now, MPPI / DWA in a later issue) implements one
+Every controller (the pure pursuit follower, DWA, the PD follower; MPPI later) implements one
 small contract, ``Controller``: ``reset()`` when a navigation goal starts or is cancelled, and
 ``compute(ControlInput) -> ControlOutput`` once per control period. The caller (the navigator)
 owns time, TF, the global plan and replanning; a controller only turns the plan, the pose and
@@ -62,6 +62,15 @@ class ControlOutput:
     detail: str = ""                       # why, for blocked / no_path (one clause, for logs)
 
 
+@dataclass(frozen=True, eq=False)
+class ControlMarkers:
+    """What a sampling controller shows in rviz after a step (map frame): its chosen trajectory
+    and a sample of its rollouts, each with a score in [0, 1] (1 best; NaN: rejected)."""
+    trajectory: np.ndarray       # float (n, 3) poses (x, y, yaw) the command drives through
+    rollouts: list               # float (m_i, 3) pose arrays, at most the sample asked for
+    scores: np.ndarray           # float (len(rollouts),)
+
+
 @runtime_checkable
 class Controller(Protocol):
     def reset(self) -> None:
@@ -71,11 +80,47 @@ class Controller(Protocol):
         """The velocity command for this period; never blocks, never returns NaN."""
 
 
+    # Optional, for rviz: ``markers(max_rollouts) -> Optional[ControlMarkers]``, the last step's
+    # trajectory and rollouts (the navigator node publishes them when someone listens).
+
+
 # The contract above is defined before the implementations, which import it from here.
+from ..config import ConfigError, from_dict  # noqa: E402
+from .dwa import DwaController, DwaSettings  # noqa: E402
 from .footprint import BodyCheck  # noqa: E402
 from .follower import FollowerSettings, PurePursuit  # noqa: E402
+from .pd import PdController, PdSettings  # noqa: E402
+
+# The controllers the navigator can drive with (``controller:=`` NAME): NAME -> (its settings
+# class, its class); every class is built as cls(settings, robot). One line adds one.
+CONTROLLERS = {
+    "pure_pursuit": (FollowerSettings, PurePursuit),
+    "dwa": (DwaSettings, DwaController),
+    "pd": (PdSettings, PdController),
+}
+DEFAULT_CONTROLLER = "pure_pursuit"
+
+
+def make_controller(name: str, settings, robot) -> Controller:
+    """The controller ``name`` of CONTROLLERS for ``robot``; ``settings``: its settings object,
+    a dict of its parameters (checked as a config block), or None for the defaults. An unknown
+    name raises ConfigError (a ValueError) in one line listing the choices."""
+    if name not in CONTROLLERS:
+        raise ConfigError(f"controller '{name}' is unknown; choose one of {', '.join(CONTROLLERS)}")
+    settings_cls, cls = CONTROLLERS[name]
+    if settings is None:
+        settings = settings_cls()
+    elif isinstance(settings, dict):
+        settings = from_dict(settings_cls, settings, name)
+    elif not isinstance(settings, settings_cls):
+        raise ConfigError(f"controller '{name}' takes {settings_cls.__name__}, got "
+                          f"{type(settings).__name__}")
+    return cls(settings, robot)
+
 
 __all__ = [
     "FOLLOWING", "ROTATING", "ARRIVED", "BLOCKED", "NO_PATH", "STATUSES",
-    "ControlInput", "ControlOutput", "Controller", "BodyCheck", "FollowerSettings", "PurePursuit",
+    "ControlInput", "ControlOutput", "ControlMarkers", "Controller", "BodyCheck",
+    "CONTROLLERS", "DEFAULT_CONTROLLER", "make_controller",
+    "FollowerSettings", "PurePursuit", "DwaSettings", "DwaController", "PdSettings", "PdController",
 ]

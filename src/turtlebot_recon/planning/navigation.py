@@ -24,7 +24,8 @@ import numpy as np
 
 from .. import _native, geometry
 from ..config import positive, require
-from ..control import BodyCheck, ControlInput, FollowerSettings, PurePursuit
+from ..control import (CONTROLLERS, DEFAULT_CONTROLLER, BodyCheck, ControlInput, DwaSettings,
+                       FollowerSettings, PdSettings, make_controller)
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
@@ -42,12 +43,28 @@ class NavigationSettings:
                                          # (one report per map counts): fail
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
+    controller: str = DEFAULT_CONTROLLER  # which drives: a name of control.CONTROLLERS
     lattice: LatticeSettings = field(default_factory=LatticeSettings)
+    # One block per controller (the launch files load config/<name>.yaml into ~<name>); the
+    # pure pursuit's is ``follower``, whose collision_margin_m, xy_goal_tolerance_m and rotate
+    # speeds the navigator's own manoeuvres use whichever controller drives.
     follower: FollowerSettings = field(default_factory=FollowerSettings)
+    dwa: DwaSettings = field(default_factory=DwaSettings)
+    pd: PdSettings = field(default_factory=PdSettings)
 
     def validate(self, src: str) -> None:
         positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
         require(self.max_blocked_replans >= 1, src, "max_blocked_replans", "must be >= 1")
+        require(self.controller in CONTROLLERS, src, "controller",
+                f"unknown controller '{self.controller}'; choose one of {', '.join(CONTROLLERS)}")
+
+    def controller_settings(self):
+        """The settings block of the selected controller (``follower`` for the pure pursuit)."""
+        return getattr(self, SETTINGS_FIELD.get(self.controller, self.controller))
+
+
+SETTINGS_FIELD = {"pure_pursuit": "follower"}   # controller -> its NavigationSettings field,
+                                                # where the two names differ
 
 
 @dataclass
@@ -98,7 +115,7 @@ class Navigation:
         self._disc = replace(robot, footprint_length_m=0.0, footprint_width_m=0.0,
                              footprint_offset_x_m=0.0)
         self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
-        self.controller = PurePursuit(settings.follower, robot)
+        self.controller = make_controller(settings.controller, settings.controller_settings(), robot)
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
         self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
