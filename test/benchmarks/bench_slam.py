@@ -129,7 +129,8 @@ def live(seeds: int, resume: bool, budget: float) -> dict:
                     out[f"{mode}/{w}/seed{n}"] = "no report"
                     continue
                 r = json.loads((d / "report.json").read_text())
-                row = {k: r.get(k) for k in ("coverage_final", "time_to_99_s", "ate_m", "ate_odometry_m",
+                row = {k: r.get(k) for k in ("coverage_final", "coverage_aligned_final", "map_alignment",
+                                             "time_to_99_s", "ate_m", "ate_odometry_m",
                                              "map_precision_occupied",
                                              "map_precision_free", "collisions", "rtf", "finished_reason")}
                 if (d / "trajectory.tum").exists() and (d / "ground_truth.tum").exists():
@@ -169,6 +170,8 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
         fig["keyframe_ate_m_default_max"] = max(v.get("keyframe_ate_m") or 0.0 for v in slam)
         fig["map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in slam)
         fig["coverage_min_slam"] = min(v["coverage_final"] for v in slam)
+        aligned = [v["coverage_aligned_final"] for v in slam if v.get("coverage_aligned_final") is not None]
+        fig["coverage_aligned_min_slam"] = min(aligned) if aligned else None
         fig["collisions_slam"] = sum(v["collisions"] for v in slam)
         fig["full_stack_rtf_slam"] = statistics.median(v["rtf"] for v in slam)
     if slam:

@@ -389,3 +389,18 @@ def test_tracker_rejects_an_empty_or_misshapen_f(room_world):
         CoverageTracker(world, np.zeros_like(world.free))
     with pytest.raises(ValueError, match="shape"):
         CoverageTracker(world, np.ones((3, 3), bool))
+
+
+def test_a_map_laid_off_the_start_frame_is_covered_once_aligned(room_world):
+    """The perfect map drawn in a frame turned 0.1 rad and shifted (0.3, -0.2) m from the start
+    frame (a SLAM map's gauge): read in the start frame it covers far from all of F; with the
+    rigid motion that takes its frame onto the start frame (``alignment``), all of it."""
+    world = load_world(room_world)                      # start (1.0, 1.5, 0)
+    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    tracker = CoverageTracker(world, f)
+    offset = (0.3, -0.2, 0.1)                            # the map frame, in the start frame
+    map_to_world = (1.0 + 0.3, 1.5 - 0.2, 0.1)           # start (+) offset (start yaw 0)
+    origin, shape = (-3.0, -3.0), (140, 160)
+    occ = world_grid_as_robot_map(world, origin, shape, map_to_world)
+    assert tracker.covered(occ, RES, origin).mean() < 0.9
+    assert tracker.covered(occ, RES, origin, alignment=offset).mean() > 0.99

@@ -13,7 +13,7 @@ import numpy as np
 from scipy import ndimage
 
 from .. import _native
-from ..geometry import cells_to_points, inside, points_to_cells
+from ..geometry import cells_to_points, inside, inverse, points_to_cells, transform_points
 from ..mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
 from ..sim.world import World
 
@@ -155,10 +155,17 @@ class CoverageTracker:
         self._t: list = []
         self._fraction: list = []
 
-    def covered(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> np.ndarray:
+    def covered(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple,
+                alignment: tuple | None = None) -> np.ndarray:
         """bool (|F|,): whether the robot's map (int8 ROS values, row 0 at ``origin_xy``, map
-        frame, m) marks each F cell free at one of its sample points."""
-        return free_at(self._mx, self._my, occupancy, resolution, origin_xy).any(axis=0)
+        frame, m) marks each F cell free at one of its sample points. ``alignment`` (x, y, yaw):
+        the rigid motion taking the robot's map frame onto the true one (a SLAM map's best fit
+        to the ground truth; the map is then read where it put each sample point)."""
+        mx, my = self._mx, self._my
+        if alignment is not None:
+            pts = transform_points(inverse(alignment), np.column_stack([mx.ravel(), my.ravel()]))
+            mx, my = pts[:, 0].reshape(mx.shape), pts[:, 1].reshape(my.shape)
+        return free_at(mx, my, occupancy, resolution, origin_xy).any(axis=0)
 
     def seen(self, occupancy: np.ndarray, resolution: float, origin_xy: tuple) -> tuple:
         """(known, occupied): the shares of F whose centre the robot's map marks known (free or
