@@ -56,7 +56,7 @@ def _rosbag_importable() -> bool:
 
 
 def record_run(world: Union[str, Path, World], robot: Union[str, RobotSpec], seconds: float,
-               seed: int = 0, odom_slip: float = 0.0, out_dir: Union[str, Path] = ".", odom_heading: str = "gyro",
+               seed: int = 0, odom_slip: float = 0.0, out_dir: Union[str, Path] = ".", odom_heading: str = "wheels",
                commands: Optional[Sequence[Command]] = None, bag: bool = True) -> RecordedRun:
     """Drive ``seconds`` of sim time with the wander (or ``commands``, then stop) and write the
     logs; returns their paths. ``bag=False`` or no rosbag module: no bag."""

@@ -58,10 +58,10 @@ class SimSettings:
                                          # once the last is this old (sim s); 0 = never
     cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
-    odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
-                                         # TurtleBot3's OpenCR firmware and kobuki_node's default
-                                         # use_imu_heading publish) | wheels (wheel-only heading:
-                                         # a base without that fusion); slip 0: exact odometry
+    odom_heading: str = "wheels"         # with slip: odometry's heading from the wheels | gyro
+                                         # (what the TurtleBot3's OpenCR firmware and kobuki_node's
+                                         # default use_imu_heading publish: see README); slip 0:
+                                         # exact odometry
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
     ground_truth_rate_hz: float = 10.0
