@@ -20,6 +20,8 @@ void register_lattice(py::module_& m);    // lattice.cpp
 void register_perception(py::module_& m);  // camera_coverage.cpp
 void register_slam(py::module_& m);  // scan_matcher.cpp
 void register_body_field(py::module_& m);  // body_field.cpp (the controllers' obstacle test)
+void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
+void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
 
 namespace {
 
@@ -66,4 +68,6 @@ PYBIND11_MODULE(_native, m) {
   register_perception(m);
   register_slam(m);
   register_body_field(m);
+  register_ilqr(m);
+  register_mppi(m);
 }
