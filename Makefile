@@ -23,7 +23,7 @@ DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam slam-log slam-eval worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
@@ -38,6 +38,8 @@ help:
 	@echo "                 (LIVE=0 offline parts only, SEEDS=N, RESUME=1, DRIVE_S=sim s per recorded drive)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
+	@echo "make bench-control  seed 000's noisy unicycle and racetrack (MPPI vs Tube MPPI) and the controllers'"
+	@echo "                 cycle times -> output/bench/control.json, figures in output/bench/control/ (RUNS=N)"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
 	@echo "                 output/bench/explore/; held-out worlds (garden, doors) reported apart (heldout_*)"
 	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
@@ -97,6 +99,11 @@ bench-sim: build
 
 bench-map: build
 	$(ENV) python test/benchmarks/bench_map.py
+
+# Seed 000's experiments (a noisy unicycle to a waypoint, a racetrack), outside ROS, and the
+# cycle times of MPPI, its numpy twin, Tube MPPI (and DWA once bound); RUNS=N runs per controller in (a).
+bench-control: build
+	$(ENV) python test/benchmarks/bench_control.py $(if $(RUNS),--runs $(RUNS))
 
 # Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
 # detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).

@@ -21,6 +21,8 @@ void register_perception(py::module_& m);  // camera_coverage.cpp
 void register_slam(py::module_& m);  // scan_matcher.cpp
 void register_body_field(py::module_& m);  // body_field.cpp (the controllers' obstacle test)
 void register_dwa(py::module_& m);  // dwa.cpp (the dynamic window approach)
+void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
+void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
 
 namespace {
 
@@ -68,4 +70,6 @@ PYBIND11_MODULE(_native, m) {
   register_slam(m);
   register_body_field(m);
   register_dwa(m);
+  register_ilqr(m);
+  register_mppi(m);
 }

@@ -1,0 +1,484 @@
+"""MPPI controller (seed 000's Algorithm 1 in Nav2's shape), behind the ``Controller`` contract.
+
+The optimizer is C++ (include/turtlebot_recon/mppi/, bound as ``_native.MppiOptimizer``); this
+module prepares its inputs (a densified local path, the map once per new occupancy array),
+judges its answer (the exact body check of the first ``check_horizon_s``) and says what it did.
+
+One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
+
+1. input      fewer than two usable waypoints: "no_path"; no usable map, a non-finite pose or
+              velocity, a map smaller than the rollouts' reach (2 x v_max x horizon), the
+              robot's or the goal's cell an obstacle: "blocked"; each with a one-line detail
+              and a zero command (the warm start is dropped).
+2. progress   the path point nearest the robot, searched forward only (as the pure pursuit).
+3. goal       within ``xy_goal_tolerance_m`` (latched): turn in place to ``goal_yaw`` where
+              BodyCheck.turn_clear allows, then "arrived".
+   heading    the path ``rotate_lookahead_m`` ahead lies more than ``rotate_threshold_rad`` off
+              the heading: turn in place toward it first, where the turn is clear (Nav2's
+              rotation shim: sampled rollouts rarely hold a turn long enough to face about,
+              and would back up along the path instead).
+4. MPPI       one iteration (optimizer.hpp) on the dense path from the progress point; the
+              distance field is rebuilt only for a new occupancy array.
+5. checks     every rollout collides; the chosen trajectory's first ``check_horizon_s``, every
+              ``collision_margin_m``, fails the exact body check (BodyCheck.stays_clear); no
+              ``stall_distance_m`` of progress along the path in ``progress_timeout_s``; or the
+              chosen trajectory stands still (moves < ``stall_distance_m``, turns <
+              ``stall_turn_rad``) farther than ``stall_distance_m`` from the goal's tolerance:
+              "blocked", zero command (the navigator replans).
+6. command    the sequence's first control, clamped to the robot's limits (it already keeps
+              them: the model does): "rotating" when it turns nearly on the spot, else
+              "following".
+
+API (also for Tube MPPI, control/tube_mppi.py)
+----------------------------------------------
+``MppiSettings``   frozen dataclass, config/mppi.yaml; ``validate(src)``.
+``MppiController(settings: MppiSettings, robot: RobotSpec, seed: Optional[int] = None)``
+    (seed None: settings.seed)
+    ``reset()``                           forget the path, the warm start and the RNG state
+                                          (re-seeded: runs are repeatable)
+    ``compute(inp: ControlInput) -> ControlOutput``   the Controller contract
+    ``optimize(state, velocity, path, goal_yaw, occupancy, resolution, origin,
+               period_s=None) -> MppiPlan``
+        One MPPI iteration from an arbitrary (nominal) state, no safety checks and no
+        statuses: Tube MPPI's nominal controller. ``state`` (x m, y m, yaw rad) map frame;
+        ``velocity`` (v m/s, w rad/s) the state's current speeds (the acceleration limits
+        start from them; for a nominal state: the nominal's last control); ``path`` float
+        (n >= 2, 2) waypoints (its last point is the goal); ``goal_yaw`` rad or None;
+        ``occupancy`` int8 grid (the distance field is rebuilt only when another array object
+        is passed); ``resolution`` m/cell; ``origin`` (x, y) m; ``period_s``: time since the
+        previous call (the warm start shifts by round(period_s / model_dt_s) steps; None: one
+        control period, 1 / ``control_rate_hz``). Warm-started from the previous call.
+    ``last_rollouts(n=50) -> np.ndarray``  float (n, T + 1, 3) poses of a sample of the last
+                                          iteration's rollouts (rviz)
+    ``trajectory``                        float (T + 1, 3) the last chosen trajectory (rviz)
+``MppiPlan``       frozen dataclass:
+    ``controls``   float (T, 2) the nominal control sequence (v m/s, w rad/s), within the
+                   robot's velocity and acceleration limits; ``controls[0]`` is the command
+    ``states``     float (T + 1, 3) poses (x, y, yaw) from ``state`` under ``controls``,
+                   ``model_dt_s`` apart
+    ``min_cost``   float, the best sampled rollout's total critic cost
+    ``colliding``  int, how many rollouts hit an obstacle (or left the map)
+    ``all_collide`` bool, every sampled rollout did
+    ``collides``   bool, the chosen trajectory itself hits one (the distance field's test)
+Hooks for a subclass (TubeMppiController): ``_iterate(pose, velocity, goal_yaw, occupancy,
+resolution, origin, period_s) -> MppiPlan`` is the one MPPI iteration compute() and optimize()
+call (override it to put the ancillary controller around it; compute() then checks and
+commands the plan it returns); ``_rotation_shim(inp, pose, goal) -> ControlOutput | None`` turns
+in place before any iteration when the path lies more than ``rotate_threshold_rad`` off the
+heading: a subclass whose ``_iterate`` must run every step overrides it to return None (or
+sets ``rotate_threshold_rad`` >= pi).
+Settings for seed 000's experiments: ``dataclasses.replace(MppiSettings(), ...)``, e.g. their
+noise on the sampling (``noise_std_v_mps``, ``noise_std_w_radps``), ``model_dt_s``,
+``time_steps``; the robot's limits come from the RobotSpec (a RobotSpec with other limits
+for their unicycle). The binding underneath: ``_native.MppiOptimizer`` (set_map, optimize,
+rollouts, costs, reset, reach_m), ``_native.mppi_motion_model``, ``_native.mppi_config_keys``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Optional
+
+import numpy as np
+
+from .. import _native
+from ..config import positive, require
+from ..geometry import wrap_angle
+from ..robot import RobotSpec
+from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
+from .follower import _clean_path, _Grid, _Track
+from .footprint import BodyCheck
+
+
+@dataclass(frozen=True)
+class MppiSettings:
+    # --- the optimizer (include/turtlebot_recon/mppi/optimizer.hpp); Nav2's defaults
+    batch_size: int = 2000               # K rollouts per cycle
+    time_steps: int = 56                 # T steps: a 2.8 s horizon at model_dt_s
+    model_dt_s: float = 0.05             # s, the motion model's step
+    temperature: float = 0.3             # lambda (cost units): w = exp(-(C - min C) / lambda)
+    noise_std_v_mps: float = 0.2         # m/s, sampling noise on v (the robot's full range ~0.26)
+    noise_std_w_radps: float = 0.4       # rad/s, sampling noise on w
+    noise_knot_steps: int = 4            # noise drawn every this many steps, linear between:
+                                         # whole swerves (1: white noise, Nav2's)
+    goal_region_m: float = 1.0           # m, the goal critics drive within it, the path ones beyond
+    smooth: bool = True                  # Savitzky-Golay (window 9) over the control sequence
+    outline_spacing_m: float = 0.05      # m, the box's outline points in the obstacle critic (an
+                                         # obstacle corner may poke in by half of it)
+    path_resolution_m: float = 0.05      # m, the path critics' distance grid
+    threads: int = 1                     # threads of the obstacle and path_align critics (the
+                                         # result is the same for any count; 1: one core)
+    min_linear_mps: float = -0.1         # m/s, slowest speed (<= 0): a slow back-off, priced by
+                                         # prefer_forward; at 0 the clamp there leaves the mean
+                                         # near 0 and a robot creeps the last cm to the goal
+    clamp_velocity: bool = True          # the model clamps to the velocity limits (false: only the
+                                         # accelerations; velocity_limits_weight prices the excess)
+    seed: int = 0                        # the noise's seed: equal seeds, equal commands
+    # --- critics (include/turtlebot_recon/mppi/critics/, one file each); 0 disables one
+    goal_distance_weight: float = 5.0    # per m of mean distance to the goal (goal region)
+    goal_heading_weight: float = 1.0     # per rad of mean heading error to goal_yaw (Nav2's 3
+                                         # holds a robot that must approach sideways off the goal)
+    goal_heading_threshold_m: float = 0.5    # m, the heading critic works this near the goal
+    path_follow_weight: float = 5.0      # per m from a rollout's end to the path one reach ahead
+    path_align_weight: float = 14.0      # per m of mean distance from the path (the planner
+                                         # checked the body fits there)
+    obstacle_weight: float = 2.0         # per unit (0..1) of mean intrusion into the band
+    obstacle_band_m: float = 0.15        # m, repulsion within this clearance of the body
+    collision_margin_m: float = 0.005    # m, the body nearer an obstacle's edge collides (the
+                                         # follower's margin; also the exact check's)
+    collision_cost: float = 1000.0       # added once to a colliding rollout (>> every other cost)
+    velocity_limits_weight: float = 10.0     # per m/s (rad/s) of mean excess over the limits
+    prefer_forward_weight: float = 5.0   # per m/s of mean reverse speed
+    # --- the controller around it (this module)
+    control_rate_hz: float = 10.0        # Hz, the period assumed until two calls give it
+    path_spacing_m: float = 0.05         # m, the global path densified to this (its waypoints
+                                         # are corners)
+    progress_window_m: float = 1.0       # m of path past the last progress searched for the
+                                         # nearest point (never a later leg of a U-turn)
+    xy_goal_tolerance_m: float = 0.1     # m, latched: then only the heading is corrected
+    yaw_goal_tolerance_rad: float = 0.1  # rad
+    rotate_threshold_rad: float = 1.047  # rad, the path this far off the heading: turn in place
+                                         # first (60 deg, the follower's)
+    rotate_lookahead_m: float = 0.3      # m, the path point the heading is measured to
+    rotate_speed_max_radps: float = 0.8  # rad/s, turning in place (the follower's)
+    rotate_speed_min_radps: float = 0.2  # rad/s, beats wheel stiction
+    rotate_gain_per_s: float = 1.5       # 1/s, in-place turn rate = gain x heading error
+    check_horizon_s: float = 0.5         # s of the chosen trajectory checked with the exact body
+                                         # check before a command goes out (5 periods at 10 Hz)
+    stall_distance_m: float = 0.05       # m, a chosen trajectory that moves less than this and
+    stall_turn_rad: float = 0.1          # rad, turns less than this, away from the goal: blocked
+    progress_timeout_s: float = 4.0      # s without stall_distance_m of progress along the path:
+                                         # blocked (a robot hovering before a wall; a turn in
+                                         # place toward the path takes < 2 s)
+    rollout_markers: int = 50            # rollouts kept for rviz
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "batch_size", "time_steps", "model_dt_s", "temperature",
+                 "noise_knot_steps", "threads", "goal_region_m", "outline_spacing_m",
+                 "path_resolution_m", "obstacle_band_m", "collision_margin_m", "collision_cost",
+                 "control_rate_hz", "path_spacing_m", "progress_window_m", "xy_goal_tolerance_m",
+                 "yaw_goal_tolerance_rad", "rotate_threshold_rad", "rotate_lookahead_m",
+                 "rotate_speed_max_radps", "rotate_speed_min_radps", "rotate_gain_per_s",
+                 "check_horizon_s", "stall_distance_m", "stall_turn_rad", "progress_timeout_s")
+        require(self.batch_size >= 2 and self.time_steps >= 2, src, "batch_size",
+                "batch_size and time_steps must be >= 2")
+        for key in ("noise_std_v_mps", "noise_std_w_radps", "goal_distance_weight",
+                    "goal_heading_weight", "goal_heading_threshold_m", "path_follow_weight",
+                    "path_align_weight", "obstacle_weight", "velocity_limits_weight",
+                    "prefer_forward_weight", "rollout_markers"):
+            v = getattr(self, key)
+            require(math.isfinite(v) and v >= 0, src, key, f"must be >= 0, got {v!r}")
+        require(self.min_linear_mps <= 0, src, "min_linear_mps", "must be <= 0")
+        require(self.obstacle_band_m >= self.collision_margin_m, src, "obstacle_band_m",
+                "must be >= collision_margin_m")
+        require(0 <= self.seed < 2 ** 32, src, "seed", "must be in [0, 2^32)")
+        require(self.rotate_speed_min_radps <= self.rotate_speed_max_radps, src,
+                "rotate_speed_min_radps", "must be <= rotate_speed_max_radps")
+
+    def native_config(self) -> dict:
+        """The keys the C++ optimizer takes (``_native.mppi_config_keys()``), seed excluded."""
+        keys = set(_native.mppi_config_keys())
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name in keys}
+
+
+@dataclass(frozen=True, eq=False)
+class MppiPlan:
+    controls: np.ndarray      # float (T, 2) (v m/s, w rad/s), within the robot's limits
+    states: np.ndarray        # float (T + 1, 3) (x, y, yaw) from the start, model_dt_s apart
+    min_cost: float           # the best rollout's cost
+    colliding: int            # rollouts that hit an obstacle (or left the map)
+    all_collide: bool         # every rollout did
+    collides: bool            # the chosen trajectory itself does (the distance field's test)
+
+
+class MppiController:
+    """MPPI behind the Controller contract (module docstring)."""
+
+    def __init__(self, settings: MppiSettings, robot: RobotSpec, seed: Optional[int] = None):
+        self.settings = settings
+        self.robot = robot
+        self.body = BodyCheck(robot, settings.collision_margin_m)
+        box = {} if robot.is_round else dict(
+            footprint_length_m=robot.footprint_length_m, footprint_width_m=robot.footprint_width_m,
+            footprint_offset_x_m=robot.footprint_offset_x_m)
+        self._opt = _native.MppiOptimizer(
+            settings.native_config(), max_linear_mps=robot.max_linear_mps,
+            max_angular_radps=robot.max_angular_radps,
+            max_linear_accel_mps2=robot.max_linear_accel_mps2,
+            max_angular_accel_radps2=robot.max_angular_accel_radps2, radius_m=robot.radius_m,
+            seed=settings.seed if seed is None else int(seed), **box)
+        self._map_key = None            # (the occupancy array object, resolution, origin)
+        self.trajectory = np.zeros((0, 3))   # the last chosen trajectory (rviz)
+        self.reset()
+
+    # ------------------------------------------------------------------ contract
+    def reset(self) -> None:
+        self._opt.reset()
+        self._track: Optional[_Track] = None
+        self._dense: Optional[np.ndarray] = None   # the track every path_spacing_m (n, 2)
+        self._dense_s: Optional[np.ndarray] = None
+        self._progress_m: Optional[float] = None
+        self._xy_reached = False
+        self._last_now_s: Optional[float] = None
+        self._mark: Optional[tuple] = None          # (time s, progress m) of the last progress
+        self._start = (0.0, 0.0, 0.0)
+        self.trajectory = np.zeros((0, 3))
+
+    def compute(self, inp: ControlInput) -> ControlOutput:
+        cfg = self.settings
+        period_s = self._period(inp.now_s)
+        if not self._follow(inp.path):
+            return self._stop(NO_PATH, "the path has fewer than two usable waypoints")
+        track = self._track
+        goal = (float(track.goal[0]), float(track.goal[1]))
+        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
+        if grid is None:
+            return self._stop(BLOCKED, "no usable map", goal)
+        pose = _finite(inp.pose, 3)
+        if pose is None:
+            return self._stop(BLOCKED, "the pose is not finite", goal)
+        velocity = _finite(inp.velocity, 2)
+        if velocity is None:
+            return self._stop(BLOCKED, "the measured velocity is not finite", goal)
+        x, y, yaw = pose
+        rows, cols = grid.occ.shape
+        reach = self._opt.reach_m
+        if min(rows, cols) * grid.res < 2.0 * reach:
+            return self._stop(BLOCKED, f"the map ({cols * grid.res:.2f} x {rows * grid.res:.2f} m)"
+                              f" is smaller than the rollouts' reach (2 x {reach:.2f} m)", goal)
+        threshold = self.body.occupied_threshold
+        if grid.occupancy(np.array([x]), np.array([y]))[0] >= threshold:
+            return self._stop(BLOCKED, f"the robot's cell ({x:.2f}, {y:.2f}) is an obstacle", goal)
+        if grid.occupancy(np.array([goal[0]]), np.array([goal[1]]))[0] >= threshold:
+            return self._stop(BLOCKED, f"the goal ({goal[0]:.2f}, {goal[1]:.2f}) is inside an "
+                              "obstacle", goal)
+
+        # the goal: latched xy tolerance, then the heading, turning in place
+        self._advance(np.array([x, y]))
+        remaining = track.length - self._progress_m
+        d_goal = math.hypot(goal[0] - x, goal[1] - y)
+        if self._xy_reached or (d_goal <= cfg.xy_goal_tolerance_m
+                                and remaining <= cfg.xy_goal_tolerance_m):
+            self._xy_reached = True
+            return self._turn_to_goal(inp, pose, goal)
+        turn = self._rotation_shim(inp, pose, goal)
+        if turn is not None:
+            return turn
+
+        plan = self._iterate(pose, velocity, inp.goal_yaw, inp.occupancy, grid.res,
+                             (grid.ox, grid.oy), period_s)
+        v, w = self._clamp(plan.controls[0])
+        k = self.settings.batch_size
+        if plan.all_collide:
+            return self._stop(BLOCKED, f"all {k} rollouts collide (or leave the map); robot at "
+                              f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
+        horizon = min(len(plan.states), int(round(cfg.check_horizon_s / cfg.model_dt_s)) + 1)
+        ahead = _densify(plan.states[:horizon], cfg.collision_margin_m, self.robot.radius_m)
+        if not self.body.stays_clear(inp, ahead):
+            return self._stop(BLOCKED, f"the chosen trajectory's first {cfg.check_horizon_s} s "
+                              f"bring the body within {cfg.collision_margin_m} m of an obstacle "
+                              f"({plan.colliding} of {k} rollouts collide); robot at "
+                              f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
+        stuck = self._no_progress(inp.now_s)
+        if stuck:
+            return self._stop(BLOCKED, f"{stuck}; {plan.colliding} of {k} rollouts collide; "
+                              f"robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
+        moved = np.hypot(*(plan.states[:, :2] - plan.states[0, :2]).T).max()
+        turned = np.abs(plan.states[:, 2] - plan.states[0, 2]).max()
+        near_goal = d_goal <= cfg.xy_goal_tolerance_m + cfg.stall_distance_m   # a short way left
+        if moved < cfg.stall_distance_m and turned < cfg.stall_turn_rad and not near_goal:
+            return self._stop(BLOCKED, f"the best of {k} rollouts stands still ({plan.colliding} "
+                              f"collide): the way along the path is blocked; robot at "
+                              f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
+        status = ROTATING if abs(v) < 0.02 and abs(w) > 0.1 else FOLLOWING
+        return ControlOutput(v, w, status, goal)
+
+    # ------------------------------------------------------------------ Tube MPPI's entry
+    def optimize(self, state, velocity, path, goal_yaw, occupancy, resolution, origin,
+                 period_s: Optional[float] = None) -> MppiPlan:
+        """One MPPI iteration from an arbitrary (nominal) state: see the module docstring.
+        Raises ValueError on a path with fewer than two usable points or non-finite input."""
+        if not self._follow(path):
+            raise ValueError("MppiController.optimize: the path has fewer than two usable points")
+        pose = _finite(state, 3)
+        speeds = _finite(velocity, 2)
+        if pose is None or speeds is None:
+            raise ValueError("MppiController.optimize: state and velocity must be finite")
+        self._advance(np.array(pose[:2]))
+        if period_s is None:
+            period_s = 1.0 / self.settings.control_rate_hz
+        return self._iterate(pose, speeds, goal_yaw, occupancy, float(resolution),
+                             (float(origin[0]), float(origin[1])), float(period_s))
+
+    def last_rollouts(self, n: Optional[int] = None) -> np.ndarray:
+        """float (n, T + 1, 3): a sample of the last iteration's rollouts, from its start pose."""
+        n = self.settings.rollout_markers if n is None else int(n)
+        r = self._opt.rollouts(n)
+        start = np.broadcast_to(np.asarray(self._start, float), (len(r), 1, 3))
+        return np.concatenate([start, r], axis=1)
+
+    # ------------------------------------------------------------------ pieces
+    def _iterate(self, pose, velocity, goal_yaw, occupancy, resolution, origin,
+                 period_s) -> MppiPlan:
+        cfg = self.settings
+        self._set_map(occupancy, resolution, origin)
+        shift = max(0, int(round(period_s / cfg.model_dt_s)))
+        gy = float(goal_yaw) if goal_yaw is not None and math.isfinite(goal_yaw) else None
+        goal = self._track.goal
+        # the speeds now, within the limits (a measured speed may overshoot them a little)
+        v0 = min(max(velocity[0], cfg.min_linear_mps), self.robot.max_linear_mps)
+        w0 = min(max(velocity[1], -self.robot.max_angular_radps), self.robot.max_angular_radps)
+        out = self._opt.optimize(pose, (v0, w0), self._local_path(), (goal[0], goal[1]),
+                                 goal_yaw=gy, shift_steps=shift)
+        self._start = tuple(pose)
+        self.trajectory = out["states"]
+        return MppiPlan(out["controls"], out["states"], float(out["min_cost"]),
+                        int(out["colliding"]), bool(out["all_collide"]), bool(out["collides"]))
+
+    def _no_progress(self, now_s) -> str:
+        """Why the robot counts as stuck (no stall_distance_m of progress along the path in
+        progress_timeout_s), or ""."""
+        cfg = self.settings
+        try:
+            now = float(now_s)
+        except (TypeError, ValueError):
+            return ""
+        if not math.isfinite(now):
+            return ""
+        if self._mark is None or self._progress_m >= self._mark[1] + cfg.stall_distance_m \
+                or now < self._mark[0]:
+            self._mark = (now, self._progress_m)
+            return ""
+        if now - self._mark[0] > cfg.progress_timeout_s:
+            return (f"no progress along the path in {now - self._mark[0]:.1f} s (stuck at "
+                    f"{self._mark[1]:.2f} of {self._track.length:.2f} m)")
+        return ""
+
+    def _set_map(self, occupancy, resolution: float, origin: tuple) -> None:
+        """The distance field, rebuilt only for another occupancy array (or resolution, origin)."""
+        key = self._map_key
+        if key is None or key[0] is not occupancy or key[1] != resolution or key[2] != origin:
+            self._opt.set_map(np.asarray(occupancy, dtype=np.int8), resolution, origin,
+                              occupied_threshold=self.body.occupied_threshold)
+            self._map_key = (occupancy, resolution, origin)   # holds the array: ids stay unique
+
+    def _follow(self, path) -> bool:
+        """Track ``path`` (a new one restarts progress); False if it has < 2 usable points."""
+        points = _clean_path(path)
+        if points is None or len(points) < 2:
+            self._track = None
+            return False
+        old = self._track
+        if old is None or old.points.shape != points.shape \
+                or not np.array_equal(old.points, points):
+            track = _Track(points)
+            # densified: every path_spacing_m, and every corner exactly
+            s = np.union1d(np.arange(0.0, track.length, self.settings.path_spacing_m), track.s)
+            self._track, self._dense_s = track, s
+            self._dense = np.column_stack([np.interp(s, track.s, points[:, 0]),
+                                           np.interp(s, track.s, points[:, 1])])
+            self._progress_m = None
+            self._xy_reached = False
+            self._mark = None
+        return True
+
+    def _advance(self, xy: np.ndarray) -> None:
+        """Progress: the nearest path point, only forward within progress_window_m."""
+        track = self._track
+        if self._progress_m is None:
+            self._progress_m = track.closest(xy, 0.0, track.length)
+        else:
+            self._progress_m = track.closest(xy, self._progress_m,
+                                             self._progress_m + self.settings.progress_window_m)
+
+    def _local_path(self) -> np.ndarray:
+        """The dense path from the progress point over two reaches and the goal region."""
+        s0 = self._progress_m
+        s1 = s0 + 2.0 * self._opt.reach_m + self.settings.goal_region_m
+        inner = (self._dense_s > s0) & (self._dense_s <= s1)
+        first = self._track.point_at(s0)
+        return np.ascontiguousarray(np.vstack([first[None, :], self._dense[inner]]))
+
+    def _rotation_shim(self, inp: ControlInput, pose: tuple,
+                       goal: tuple) -> Optional[ControlOutput]:
+        """Turn in place toward the path ``rotate_lookahead_m`` ahead when it lies more than
+        ``rotate_threshold_rad`` off the heading and the turn is clear, else None (MPPI drives).
+        ``rotate_threshold_rad`` >= pi disables it."""
+        cfg = self.settings
+        x, y, yaw = pose
+        ahead = self._track.point_at(self._progress_m + cfg.rotate_lookahead_m)
+        err = wrap_angle(math.atan2(ahead[1] - y, ahead[0] - x) - yaw)
+        if abs(err) <= cfg.rotate_threshold_rad or not self.body.turn_clear(inp, pose, err):
+            return None
+        self._opt.reset()                     # the warm start was for the other heading
+        self._mark = None
+        self.trajectory = np.asarray([pose], float)
+        return ControlOutput(0.0, self._turn_rate(err), ROTATING, goal)
+
+    def _turn_to_goal(self, inp: ControlInput, pose: tuple, goal: tuple) -> ControlOutput:
+        cfg = self.settings
+        if inp.goal_yaw is None or not math.isfinite(inp.goal_yaw):
+            return self._stop(ARRIVED, "", goal)
+        err = wrap_angle(float(inp.goal_yaw) - pose[2])
+        if abs(err) <= cfg.yaw_goal_tolerance_rad:
+            return self._stop(ARRIVED, "", goal)
+        if not self.body.turn_clear(inp, pose, err):
+            return self._stop(BLOCKED, f"turning {err:.2f} rad in place to the goal's heading "
+                              f"would bring the body within {cfg.collision_margin_m} m of an "
+                              f"obstacle; robot at ({pose[0]:.2f}, {pose[1]:.2f})", goal)
+        self.trajectory = np.asarray([pose], float)
+        return ControlOutput(0.0, self._turn_rate(err), ROTATING, goal)
+
+    def _turn_rate(self, err: float) -> float:
+        """w = gain x error, between the minimum and maximum turn rates, with the error's sign."""
+        cfg = self.settings
+        top = min(cfg.rotate_speed_max_radps, self.robot.max_angular_radps)
+        return math.copysign(min(max(cfg.rotate_gain_per_s * abs(err), cfg.rotate_speed_min_radps),
+                                 top), err)
+
+    def _stop(self, status: str, detail: str, target=None) -> ControlOutput:
+        """Zero command; the warm start is dropped (the next plan starts from rest)."""
+        if status in (BLOCKED, NO_PATH):
+            self._opt.reset()
+            self._mark = None
+        self.trajectory = np.zeros((0, 3))
+        return ControlOutput(0.0, 0.0, status, target, detail)
+
+    def _clamp(self, u) -> tuple:
+        v, w = float(u[0]), float(u[1])
+        if not (math.isfinite(v) and math.isfinite(w)):
+            return 0.0, 0.0
+        r = self.robot
+        return (min(max(v, self.settings.min_linear_mps), r.max_linear_mps),
+                min(max(w, -r.max_angular_radps), r.max_angular_radps))
+
+    def _period(self, now_s) -> float:
+        """The control period (s) from the last two calls' times; 1 / control_rate_hz until then."""
+        try:
+            now = float(now_s)
+        except (TypeError, ValueError):
+            now = math.nan
+        last, self._last_now_s = self._last_now_s, now
+        dt = now - last if last is not None else math.nan
+        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 1.0 / self.settings.control_rate_hz
+
+
+def _finite(values, n: int) -> Optional[tuple]:
+    """The first ``n`` values as floats if all are finite, else None."""
+    try:
+        out = tuple(float(v) for v in values[:n])
+    except (TypeError, ValueError, IndexError):
+        return None
+    return out if len(out) == n and all(math.isfinite(v) for v in out) else None
+
+
+def _densify(states: np.ndarray, step_m: float, radius_m: float) -> np.ndarray:
+    """Poses between those of ``states`` so that no point of the body (within ``radius_m`` of
+    base_footprint) moves more than ``step_m`` from one to the next."""
+    out = [states[:1]]
+    for a, b in zip(states[:-1], states[1:]):
+        move = max(math.hypot(b[0] - a[0], b[1] - a[1]) + abs(b[2] - a[2]) * radius_m, 1e-12)
+        n = max(1, int(math.ceil(move / step_m)))
+        f = (np.arange(1, n + 1) / n)[:, None]
+        out.append(a + f * (b - a))
+    return np.vstack(out)

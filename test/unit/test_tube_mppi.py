@@ -1,0 +1,148 @@
+"""Tube MPPI (control/tube_mppi.py): MPPI on the nominal state, iLQR from the real one; it
+reaches a goal under seed 000's noise, resets the nominal when the robot leaves the tube, keeps
+the robot's limits and stops on bad input."""
+import math
+from dataclasses import fields
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from turtlebot_recon.config import from_dict, load_yaml
+from turtlebot_recon.control import BLOCKED, FOLLOWING, ROTATING, ControlInput
+from turtlebot_recon.control.footprint import BodyCheck
+from turtlebot_recon.control.mppi import MppiSettings
+from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettings
+from turtlebot_recon.robot import RobotSpec, load_robot
+
+TUBE_CONFIG = Path(__file__).resolve().parents[2] / "config" / "tube_mppi.yaml"
+RES = 0.05
+DT = 0.1                                  # s, seed 000's step (bench-control's choice)
+# seed 000's idealised unicycle, as in test/benchmarks/bench_control.py, with fewer samples
+UNICYCLE = RobotSpec(name="unicycle", wheel_radius_m=0.033, wheel_separation_m=0.16,
+                     max_linear_mps=2.0, max_angular_radps=3.0, max_linear_accel_mps2=1e3,
+                     max_angular_accel_radps2=1e3, radius_m=0.1)
+UNICYCLE_MPPI = MppiSettings(batch_size=300, time_steps=30, model_dt_s=DT, control_rate_hz=1 / DT,
+                             min_linear_mps=-1.0, noise_std_v_mps=0.5, noise_std_w_radps=1.0,
+                             goal_region_m=3.0)
+WIDE_TUBE = TubeMppiSettings(tube_radius_m=0.5, tube_yaw_rad=1.5)
+SMALL_MPPI = MppiSettings(batch_size=300)     # the waffle_pi's defaults, fewer samples
+
+
+def empty(size_m=16.0, origin=(-6.5, -6.5)):
+    n = int(round(size_m / RES))
+    return np.zeros((n, n), np.int8), origin
+
+
+def control_input(occ, origin, pose, velocity, path, now_s=0.0):
+    return ControlInput(now_s, tuple(pose), tuple(velocity), np.asarray(path, float), None, occ,
+                        np.zeros(occ.shape, np.uint8), RES, origin)
+
+
+def test_yaml_matches_the_settings_defaults():
+    data = load_yaml(TUBE_CONFIG)
+    assert set(data) == {f.name for f in fields(TubeMppiSettings)}
+    assert from_dict(TubeMppiSettings, data, "tube_mppi.yaml") == TubeMppiSettings()
+
+
+def test_reaches_the_goal_under_seed_000s_noise():
+    """Seed 000's noisy unicycle, (0, 0) -> (3, 3) in 50 steps of 0.1 s: control noise of
+    variance 0.5 (v) and 4 (w), state noise U[-0.06, 0.06] (x, y), U[-0.3, 0.3] (yaw). Fixed
+    seeds; each run ends within 0.3 m of the goal."""
+    occ, origin = empty()
+    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    goal = np.array([3.0, 3.0])
+    for seed in (0, 1, 2):
+        rng = np.random.default_rng(seed)
+        controller.reset()
+        x, u = np.zeros(3), np.zeros(2)
+        for k in range(50):
+            out = controller.compute(control_input(occ, origin, x, u, [x[:2], goal], k * DT))
+            u = np.array([out.linear_mps, out.angular_radps])
+            assert np.isfinite(u).all() and abs(u[0]) <= 2.0 and abs(u[1]) <= 3.0
+            v, w = u + rng.normal(0.0, [math.sqrt(0.5), 2.0])
+            x = x + DT * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
+            x = x + rng.uniform([-0.06, -0.06, -0.3], [0.06, 0.06, 0.3])
+        assert np.hypot(*(x[:2] - goal)) < 0.3, seed
+
+
+def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
+    occ, origin = empty()
+    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    path = [[0.0, 0.0], [3.0, 0.0]]
+    x = np.zeros(3)
+    for k in range(3):                         # noise free: the robot stays on the nominal
+        out = controller.compute(control_input(occ, origin, x, (0, 0), path, k * DT))
+        v, w = out.linear_mps, out.angular_radps
+        x = x + DT * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
+        assert controller.resets == 0
+        z0 = controller.nominal_trajectory[0]
+    assert np.hypot(*(controller.nominal_trajectory[0, :2] - controller.trajectory[0, :2])) < 0.05
+    pushed = x + np.array([0.0, 0.8, 0.0])     # 0.8 m sideways: beyond the 0.5 m tube
+    out = controller.compute(control_input(occ, origin, pushed, (v, w), path, 3 * DT))
+    assert controller.resets == 1
+    np.testing.assert_allclose(controller.nominal_trajectory[0], pushed)   # z <- x
+    assert np.hypot(*(z0[:2] - pushed[:2])) > 0.5
+    # inside the tube (a 0.3 m push) the nominal stays where MPPI planned it
+    x = controller.trajectory[1]
+    out = controller.compute(control_input(occ, origin, x + [0.3, 0.0, 0.0], (v, w), path, 4 * DT))
+    assert controller.resets == 1 and out.status in (FOLLOWING, ROTATING)
+    assert np.hypot(*(controller.nominal_trajectory[0, :2] - controller.trajectory[0, :2])) > 0.25
+
+
+def test_the_ancillary_pulls_back_toward_the_nominal():
+    """0.3 m left of a nominal that drives along +x, iLQR steers right (w < 0)."""
+    occ, origin = empty()
+    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    path = [[0.0, 0.0], [5.0, 0.0]]
+    x = np.zeros(3)
+    for k in range(5):
+        out = controller.compute(control_input(occ, origin, x, (0, 0), path, k * DT))
+        v, w = out.linear_mps, out.angular_radps
+        x = x + DT * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
+    z = controller._z.copy()
+    out = controller.compute(control_input(occ, origin, z + [0.0, 0.3, 0.0], (v, w), path, 5 * DT))
+    assert controller.resets == 0 and out.angular_radps < -0.2
+    # the predicted trajectory converges onto the nominal's
+    err = np.hypot(*(controller.trajectory[:, :2] - controller.nominal_trajectory[:, :2]).T)
+    assert err[-1] < 0.1 * err[0]
+
+
+@pytest.mark.parametrize("pose, velocity, detail", [
+    ((math.nan, 0.0, 0.0), (0.0, 0.0), "the pose is not finite"),
+    ((1.0, 1.0, 0.0), (math.inf, 0.0), "the measured velocity is not finite"),
+])
+def test_non_finite_input_stops_the_robot_with_a_reason(pose, velocity, detail):
+    occ, origin = empty(8.0, (-2.0, -2.0))
+    robot = load_robot("turtlebot3_waffle_pi")
+    controller = TubeMppiController(TubeMppiSettings(), SMALL_MPPI, robot)
+    out = controller.compute(control_input(occ, origin, pose, velocity, [[1.0, 1.0], [3.0, 1.0]]))
+    assert (out.linear_mps, out.angular_radps, out.status) == (0.0, 0.0, BLOCKED)
+    assert detail in out.detail
+
+
+def test_the_waffle_keeps_its_limits_and_refuses_a_wall():
+    """A wall across the map 1.2 m ahead with the path through it: the commands keep the
+    waffle_pi's limits and the body never touches the wall (it drives up to it and stays
+    short of it, blocked or hovering: MPPI's stall rule decides which)."""
+    robot = load_robot("turtlebot3_waffle_pi")
+    occ, origin = empty(8.0, (-2.0, -4.0))
+    col = int(round((2.2 - origin[0]) / RES))
+    occ[:, col:col + 4] = 100                   # a wall at x = 2.2 m
+    controller = TubeMppiController(TubeMppiSettings(), SMALL_MPPI, robot)
+    body = BodyCheck(robot, 0.0)
+    path = [[1.0, 0.0], [4.0, 0.0]]
+    x, u = np.array([1.0, 0.0, 0.0]), (0.0, 0.0)
+    for k in range(60):
+        inp = control_input(occ, origin, x, u, path, k * 0.1)
+        out = controller.compute(inp)
+        v, w = out.linear_mps, out.angular_radps
+        assert SMALL_MPPI.min_linear_mps - 1e-9 <= v <= robot.max_linear_mps + 1e-9
+        assert abs(w) <= robot.max_angular_radps + 1e-9
+        assert abs(v - u[0]) <= robot.max_linear_accel_mps2 * 0.1 + 1e-9
+        assert abs(w - u[1]) <= robot.max_angular_accel_radps2 * 0.1 + 1e-9
+        for _ in range(2):                       # 0.1 s period, two 0.05 s Euler steps
+            x = x + 0.05 * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
+        assert body.clearance(inp, [x], 0.1)[0] > 0.0
+        u = (v, w)
+    assert x[0] > 1.4                             # it did drive toward the wall
