@@ -33,6 +33,7 @@ import argparse
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import matplotlib
@@ -84,7 +85,7 @@ def make_controller(kind: str):
     """The experiments' controllers: seed 000's unicycle, the same MPPI settings for both."""
     if kind == "mppi":
         return MppiController(EXPERIMENT_MPPI, UNICYCLE)
-    return TubeMppiController(EXPERIMENT_TUBE, EXPERIMENT_MPPI, UNICYCLE)
+    return TubeMppiController(replace(EXPERIMENT_TUBE, mppi=EXPERIMENT_MPPI), UNICYCLE)
 
 
 def noisy_step(x: np.ndarray, u: np.ndarray, rng, control_std, state_half) -> np.ndarray:
@@ -246,7 +247,7 @@ def tube_cycle_ms(cycles: int, batch_size: int = 2000, time_steps: int = 56) -> 
     exact body check) on time_cycles' scene: the waffle_pi 1 m before a door, at speed."""
     robot = load_robot("turtlebot3_waffle_pi")
     s = MppiSettings(batch_size=batch_size, time_steps=time_steps)
-    controller = TubeMppiController(TubeMppiSettings(), s, robot)
+    controller = TubeMppiController(replace(TubeMppiSettings(), mppi=s), robot)
     occupancy = walled_map()
     costmap = np.zeros(occupancy.shape, np.uint8)
     path = np.array([[3.5, 5.0], [4.0, 5.0], [6.0, 5.0], [6.0, 8.0]])

@@ -22,7 +22,7 @@ from std_msgs.msg import UInt32
 from turtlebot_recon.config import load_yaml
 from turtlebot_recon.control import CONTROLLERS as ALL
 
-CONTROLLERS = ["pure_pursuit", "dwa", "pd"]     # one entry per controller under test
+CONTROLLERS = ["pure_pursuit", "dwa", "pd", "mppi", "tube_mppi"]   # one entry per controller under test
 START = (1.45, 5.45)
 GOALS = [(3.5, 5.5), (4.2, 5.05), (2.1, 5.2)]   # world frame, in the start room, in turn
 CONFIG = Path(__file__).resolve().parents[2] / "config"

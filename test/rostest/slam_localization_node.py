@@ -47,7 +47,7 @@ class SlamLocalization(unittest.TestCase):
         self.assertGreater(len(errors), 60)
         self.assertLess(np.mean(errors), 0.05, (np.mean(errors), np.max(errors)))
         self.assertLess(np.mean(yaw_errors), 0.05)
-        self.assertGreater(np.max(odom_errors), 0.1)   # the drift is real
+        self.assertGreater(np.max(odom_errors), 0.05)  # the drift is real
 
     def test_2_a_missing_map_is_one_clear_error(self):
         env = dict(os.environ, ROS_NAMESPACE="/bad_map")

@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 
 from turtlebot_recon.behavior.supervisor import SupervisorSettings
-from turtlebot_recon.control import CONTROLLERS, DEFAULT_CONTROLLER, DwaSettings, PdSettings
+from turtlebot_recon.control import (CONTROLLERS, DEFAULT_CONTROLLER, DwaSettings, MppiSettings, PdSettings,
+                                     TubeMppiSettings)
 from turtlebot_recon.config import ConfigError, from_dict, from_params, load_yaml
 from turtlebot_recon.evaluation.evaluator import EvaluatorSettings
 from turtlebot_recon.evaluation.oracle import OracleDriverSettings
@@ -42,6 +43,8 @@ BLOCKS = {
     ("lattice.yaml", ()): LatticeSettings,
     ("dwa.yaml", ()): DwaSettings,
     ("pd.yaml", ()): PdSettings,
+    ("mppi.yaml", ()): MppiSettings,
+    ("tube_mppi.yaml", ()): TubeMppiSettings,
     ("supervisor.yaml", ()): SupervisorSettings,
     ("trajectory.yaml", ()): TrajectorySettings,
     ("evaluator.yaml", ()): EvaluatorSettings,
@@ -56,7 +59,8 @@ BLOCKS = {
     ("slam.yaml", ()): SlamNodeSettings,
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
-OWN_FILE = {LatticeSettings: "lattice.yaml", DwaSettings: "dwa.yaml", PdSettings: "pd.yaml"}
+OWN_FILE = {LatticeSettings: "lattice.yaml", DwaSettings: "dwa.yaml", PdSettings: "pd.yaml",
+            MppiSettings: "mppi.yaml", TubeMppiSettings: "tube_mppi.yaml"}
 # Keys that choose rather than set: (file, key path) -> (the choices, the default).
 SELECTORS = {("explorer.yaml", ("strategy",)): (set(STRATEGIES), DEFAULT_STRATEGY)}
 

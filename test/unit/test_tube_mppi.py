@@ -2,20 +2,17 @@
 reaches a goal under seed 000's noise, resets the nominal when the robot leaves the tube, keeps
 the robot's limits and stops on bad input."""
 import math
-from dataclasses import fields
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from turtlebot_recon.config import from_dict, load_yaml
 from turtlebot_recon.control import BLOCKED, FOLLOWING, ROTATING, ControlInput
 from turtlebot_recon.control.footprint import BodyCheck
 from turtlebot_recon.control.mppi import MppiSettings
 from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettings
 from turtlebot_recon.robot import RobotSpec, load_robot
 
-TUBE_CONFIG = Path(__file__).resolve().parents[2] / "config" / "tube_mppi.yaml"
 RES = 0.05
 DT = 0.1                                  # s, seed 000's step (bench-control's choice)
 # seed 000's idealised unicycle, as in test/benchmarks/bench_control.py, with fewer samples
@@ -39,18 +36,12 @@ def control_input(occ, origin, pose, velocity, path, now_s=0.0):
                         np.zeros(occ.shape, np.uint8), RES, origin)
 
 
-def test_yaml_matches_the_settings_defaults():
-    data = load_yaml(TUBE_CONFIG)
-    assert set(data) == {f.name for f in fields(TubeMppiSettings)}
-    assert from_dict(TubeMppiSettings, data, "tube_mppi.yaml") == TubeMppiSettings()
-
-
 def test_reaches_the_goal_under_seed_000s_noise():
     """Seed 000's noisy unicycle, (0, 0) -> (3, 3) in 50 steps of 0.1 s: control noise of
     variance 0.5 (v) and 4 (w), state noise U[-0.06, 0.06] (x, y), U[-0.3, 0.3] (yaw). Fixed
     seeds; each run ends within 0.3 m of the goal."""
     occ, origin = empty()
-    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
     goal = np.array([3.0, 3.0])
     for seed in (0, 1, 2):
         rng = np.random.default_rng(seed)
@@ -68,7 +59,7 @@ def test_reaches_the_goal_under_seed_000s_noise():
 
 def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
     occ, origin = empty()
-    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
     path = [[0.0, 0.0], [3.0, 0.0]]
     x = np.zeros(3)
     for k in range(3):                         # noise free: the robot stays on the nominal
@@ -93,7 +84,7 @@ def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
 def test_the_ancillary_pulls_back_toward_the_nominal():
     """0.3 m left of a nominal that drives along +x, iLQR steers right (w < 0)."""
     occ, origin = empty()
-    controller = TubeMppiController(WIDE_TUBE, UNICYCLE_MPPI, UNICYCLE)
+    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
     path = [[0.0, 0.0], [5.0, 0.0]]
     x = np.zeros(3)
     for k in range(5):
@@ -115,7 +106,7 @@ def test_the_ancillary_pulls_back_toward_the_nominal():
 def test_non_finite_input_stops_the_robot_with_a_reason(pose, velocity, detail):
     occ, origin = empty(8.0, (-2.0, -2.0))
     robot = load_robot("turtlebot3_waffle_pi")
-    controller = TubeMppiController(TubeMppiSettings(), SMALL_MPPI, robot)
+    controller = TubeMppiController(replace(TubeMppiSettings(), mppi=SMALL_MPPI), robot)
     out = controller.compute(control_input(occ, origin, pose, velocity, [[1.0, 1.0], [3.0, 1.0]]))
     assert (out.linear_mps, out.angular_radps, out.status) == (0.0, 0.0, BLOCKED)
     assert detail in out.detail
@@ -129,7 +120,7 @@ def test_the_waffle_keeps_its_limits_and_refuses_a_wall():
     occ, origin = empty(8.0, (-2.0, -4.0))
     col = int(round((2.2 - origin[0]) / RES))
     occ[:, col:col + 4] = 100                   # a wall at x = 2.2 m
-    controller = TubeMppiController(TubeMppiSettings(), SMALL_MPPI, robot)
+    controller = TubeMppiController(replace(TubeMppiSettings(), mppi=SMALL_MPPI), robot)
     body = BodyCheck(robot, 0.0)
     path = [[1.0, 0.0], [4.0, 0.0]]
     x, u = np.array([1.0, 0.0, 0.0]), (0.0, 0.0)

@@ -1,6 +1,6 @@
 """Control: the controller contract and its implementations (ROS-free, never blocking).
 
-Every controller (the pure pursuit follower, DWA, the PD follower; MPPI later) implements one
+Every controller (the pure pursuit follower, DWA, the PD follower, MPPI, Tube MPPI) implements one
 small contract, ``Controller``: ``reset()`` when a navigation goal starts or is cancelled, and
 ``compute(ControlInput) -> ControlOutput`` once per control period. The caller (the navigator)
 owns time, TF, the global plan and replanning; a controller only turns the plan, the pose and
@@ -89,7 +89,9 @@ from ..config import ConfigError, from_dict  # noqa: E402
 from .dwa import DwaController, DwaSettings  # noqa: E402
 from .footprint import BodyCheck  # noqa: E402
 from .follower import FollowerSettings, PurePursuit  # noqa: E402
+from .mppi import MppiController, MppiSettings  # noqa: E402
 from .pd import PdController, PdSettings  # noqa: E402
+from .tube_mppi import TubeMppiController, TubeMppiSettings  # noqa: E402
 
 # The controllers the navigator can drive with (``controller:=`` NAME): NAME -> (its settings
 # class, its class); every class is built as cls(settings, robot). One line adds one.
@@ -97,6 +99,8 @@ CONTROLLERS = {
     "pure_pursuit": (FollowerSettings, PurePursuit),
     "dwa": (DwaSettings, DwaController),
     "pd": (PdSettings, PdController),
+    "mppi": (MppiSettings, MppiController),
+    "tube_mppi": (TubeMppiSettings, TubeMppiController),
 }
 DEFAULT_CONTROLLER = "pure_pursuit"
 
@@ -123,4 +127,5 @@ __all__ = [
     "ControlInput", "ControlOutput", "ControlMarkers", "Controller", "BodyCheck",
     "CONTROLLERS", "DEFAULT_CONTROLLER", "make_controller",
     "FollowerSettings", "PurePursuit", "DwaSettings", "DwaController", "PdSettings", "PdController",
+    "MppiSettings", "MppiController", "TubeMppiSettings", "TubeMppiController",
 ]

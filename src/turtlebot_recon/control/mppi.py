@@ -85,7 +85,7 @@ from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
+from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput
 from .follower import _clean_path, _Grid, _Track
 from .footprint import BodyCheck
 
@@ -316,6 +316,15 @@ class MppiController:
         r = self._opt.rollouts(n)
         start = np.broadcast_to(np.asarray(self._start, float), (len(r), 1, 3))
         return np.concatenate([start, r], axis=1)
+
+    def markers(self, max_rollouts: int = 50) -> Optional[ControlMarkers]:
+        """For rviz: the chosen trajectory and a sample of the last iteration's rollouts (the
+        optimizer keeps their poses, not which sample each was: one shade, score 0.5); None
+        before the first iteration."""
+        if len(self.trajectory) == 0:
+            return None
+        rollouts = list(self.last_rollouts(max_rollouts))
+        return ControlMarkers(np.asarray(self.trajectory, float), rollouts, np.full(len(rollouts), 0.5))
 
     # ------------------------------------------------------------------ pieces
     def _iterate(self, pose, velocity, goal_yaw, occupancy, resolution, origin,

@@ -29,7 +29,7 @@ x_T = z_T, softened).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -57,6 +57,7 @@ class TubeMppiSettings:
     qf_xy_per_m2: float = 50.0           # 1/m^2, terminal: the ancillary problem's x_T = z_T,
     qf_yaw_per_rad2: float = 10.0        # 1/rad^2, terminal    softened
     ilqr_max_iterations: int = 5         # iterations per control step (warm: a few suffice)
+    mppi: MppiSettings = field(default_factory=MppiSettings)   # the nominal's MPPI (config/mppi.yaml)
 
     def validate(self, src: str) -> None:
         positive(src, self, "tube_radius_m", "tube_yaw_rad", "r_linear_s2_per_m2",
@@ -73,12 +74,16 @@ class TubeMppiController(MppiController):
     from ``state`` as the measured state. ``trajectory`` is the ancillary's predicted
     trajectory, ``nominal_trajectory`` MPPI's; ``resets`` counts nominal resets (step 2)."""
 
-    def __init__(self, settings: TubeMppiSettings, mppi: MppiSettings, robot: RobotSpec,
-                 seed: Optional[int] = None):
+    def __init__(self, settings: TubeMppiSettings, robot: RobotSpec, seed: Optional[int] = None):
         settings.validate("TubeMppiSettings")
         self.tube = settings
         self.resets = 0
-        super().__init__(mppi, robot, seed)
+        super().__init__(settings.mppi, robot, seed)
+
+    def _rotation_shim(self, inp, pose, goal):
+        """No turning on the spot ahead of the tube: the nominal would stand while the robot
+        turns, and leave the tube (seed 000's Tube MPPI has no such step)."""
+        return None
 
     def reset(self) -> None:
         super().reset()

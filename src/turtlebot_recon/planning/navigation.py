@@ -25,7 +25,7 @@ import numpy as np
 from .. import _native, geometry
 from ..config import positive, require
 from ..control import (CONTROLLERS, DEFAULT_CONTROLLER, BodyCheck, ControlInput, DwaSettings,
-                       FollowerSettings, PdSettings, make_controller)
+                       FollowerSettings, MppiSettings, PdSettings, TubeMppiSettings, make_controller)
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
@@ -51,6 +51,8 @@ class NavigationSettings:
     follower: FollowerSettings = field(default_factory=FollowerSettings)
     dwa: DwaSettings = field(default_factory=DwaSettings)
     pd: PdSettings = field(default_factory=PdSettings)
+    mppi: MppiSettings = field(default_factory=MppiSettings)
+    tube_mppi: TubeMppiSettings = field(default_factory=TubeMppiSettings)
 
     def validate(self, src: str) -> None:
         positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
