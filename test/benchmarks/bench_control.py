@@ -25,8 +25,8 @@ controllers' cycle times, in one run -> output/bench/control.json, figures in ou
     collisions per controller.
 (c) Timings, 2000 samples x 56 steps of 0.05 s, the waffle_pi, one core: MPPI and its numpy
     twin (test/benchmarks/mppi_numpy.py's ``time_cycles``), one full Tube MPPI step (MPPI on
-    the nominal + iLQR + the checks) on the same scene; dwa_ms_400 is left out until DWA's
-    binding exists (another helper's part).
+    the nominal + iLQR + the checks) on the same scene; dwa_ms_400, a full DWA step (400 arcs
+    of 2 s and the checks) on it too.
 The experiments use fewer samples than (c) (``EXPERIMENT_MPPI``), stated in the JSON.
 """
 import argparse
@@ -48,6 +48,7 @@ from mppi_numpy import time_cycles, walled_map  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
 from turtlebot_recon.control import ControlInput  # noqa: E402
+from turtlebot_recon.control.dwa import DwaController, DwaSettings  # noqa: E402
 from turtlebot_recon.control.footprint import BodyCheck  # noqa: E402
 from turtlebot_recon.control.mppi import MppiController, MppiSettings  # noqa: E402
 from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettings  # noqa: E402
@@ -263,10 +264,25 @@ def tube_cycle_ms(cycles: int, batch_size: int = 2000, time_steps: int = 56) -> 
     return float(np.median(ms))
 
 
-def dwa_bindings() -> list:
-    """The DWA bindings of the module, if another issue's part has landed (not timed here until
-    its API is known: dwa_ms_400 is then left out of the JSON)."""
-    return [n for n in dir(_native) if "dwa" in n.lower()]
+def dwa_cycle_ms(cycles: int) -> float:
+    """Median ms of one full DWA step (compute(): the 20 x 20 = 400 arcs of 2 s, the checks,
+    the exact body check) on tube_cycle_ms' scene."""
+    robot = load_robot("turtlebot3_waffle_pi")
+    settings = DwaSettings()
+    assert settings.linear_samples * settings.angular_samples == 400
+    controller = DwaController(settings, robot)
+    occupancy = walled_map()
+    costmap = np.zeros(occupancy.shape, np.uint8)
+    path = np.array([[3.5, 5.0], [4.0, 5.0], [6.0, 5.0], [6.0, 8.0]])
+    ms = []
+    for k in range(cycles + 1):
+        inp = ControlInput(k * 0.1, (3.5 + 0.01 * (k % 3), 5.0, 0.0), (0.2, 0.0), path, None, occupancy,
+                           costmap, RES, (0.0, 0.0))
+        t0 = time.perf_counter()
+        controller.compute(inp)
+        if k:
+            ms.append(1e3 * (time.perf_counter() - t0))
+    return float(np.median(ms))
 
 
 # ---------------------------------------------------------------------- main
@@ -329,7 +345,7 @@ def main() -> None:
     # (c)
     fig.update(time_cycles(cycles=args.cycles))
     fig["tube_mppi_ms"] = tube_cycle_ms(args.cycles)
-    print(f"dwa_ms_400: not measured (DWA bindings in _native: {dwa_bindings() or 'none'})")
+    fig["dwa_ms_400"] = dwa_cycle_ms(args.cycles)
     write("control", {k: v for k, v in fig.items() if v is not None})
 
 
