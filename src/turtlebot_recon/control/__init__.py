@@ -26,6 +26,7 @@ the smallest y, cell (r, c) centred at origin + ((c + 0.5) res, (r + 0.5) res).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional, Protocol, runtime_checkable
 
@@ -84,6 +85,28 @@ class Controller(Protocol):
     # trajectory and rollouts (the navigator node publishes them when someone listens).
 
 
+class PeriodClock:
+    """The control period (s) from the last two steps' times (``ControlInput.now_s``), for
+    controllers that integrate over it: ``default_s`` until there are two, and when the clock
+    stood still, jumped back or jumped by more than a second. ``reset()`` with the controller."""
+
+    def __init__(self, default_s: float):
+        self.default_s = default_s
+        self.reset()
+
+    def reset(self) -> None:
+        self._last_s: Optional[float] = None
+
+    def __call__(self, now_s) -> float:
+        try:
+            now = float(now_s)
+        except (TypeError, ValueError):
+            now = math.nan
+        last, self._last_s = self._last_s, now
+        dt = now - last if last is not None else math.nan
+        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else self.default_s
+
+
 # The contract above is defined before the implementations, which import it from here.
 from ..config import ConfigError, from_dict  # noqa: E402
 from .dwa import DwaController, DwaSettings  # noqa: E402
@@ -124,7 +147,7 @@ def make_controller(name: str, settings, robot) -> Controller:
 
 __all__ = [
     "FOLLOWING", "ROTATING", "ARRIVED", "BLOCKED", "NO_PATH", "STATUSES",
-    "ControlInput", "ControlOutput", "ControlMarkers", "Controller", "BodyCheck",
+    "ControlInput", "ControlOutput", "ControlMarkers", "Controller", "PeriodClock", "BodyCheck",
     "CONTROLLERS", "DEFAULT_CONTROLLER", "make_controller",
     "FollowerSettings", "PurePursuit", "DwaSettings", "DwaController", "PdSettings", "PdController",
     "MppiSettings", "MppiController", "TubeMppiSettings", "TubeMppiController",

@@ -53,7 +53,7 @@ from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
 from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers,
-               ControlOutput)
+               ControlOutput, PeriodClock)
 from .follower import _clean_path, _Grid, _Track
 from .footprint import BodyCheck
 
@@ -136,13 +136,14 @@ class DwaController:
             unknown_is_obstacle=s.unknown_is_collision, occupied_threshold=self.body.occupied_threshold,
             heading_weight=s.heading_weight, clearance_weight=s.clearance_weight,
             velocity_weight=s.velocity_weight)
+        self._clock = PeriodClock(0.1)   # the control period from the steps' times
         self.reset()
 
     def reset(self) -> None:
         self._track: Optional[_Track] = None
         self._progress_m: Optional[float] = None
         self._xy_reached = False
-        self._last_now_s: Optional[float] = None
+        self._clock.reset()
         self.last_plan: Optional[dict] = None       # the last DWA result (for markers)
         self._last_pose: Optional[tuple] = None
 
@@ -165,15 +166,10 @@ class DwaController:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
         if not (math.isfinite(v_meas) and math.isfinite(w_meas)):
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the measured velocity is not finite")
-        period_s = self._period(inp.now_s)
+        period_s = self._clock(inp.now_s)
         xy = np.array([x, y])
 
-        # 1. progress
-        if self._progress_m is None:
-            self._progress_m = track.closest(xy, 0.0, track.length)
-        else:
-            self._progress_m = track.closest(xy, self._progress_m,
-                                             self._progress_m + cfg.progress_window_m)
+        self._progress_m = track.progress(xy, self._progress_m, cfg.progress_window_m)
         remaining_m = track.length - self._progress_m
         d_goal_xy = float(np.hypot(*(track.goal - xy)))
         goal = (float(track.goal[0]), float(track.goal[1]))
@@ -335,15 +331,6 @@ class DwaController:
             self._progress_m = None
         return self._track
 
-    def _period(self, now_s) -> float:
-        """The control period (s) from the last two steps' times; 0.1 s until there are two."""
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            now = math.nan
-        last, self._last_now_s = self._last_now_s, now
-        dt = now - last if last is not None else math.nan
-        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 0.1
 
     def _turn(self, inp: ControlInput, pose: tuple, err: float, target: tuple,
               what: str) -> ControlOutput:

@@ -55,7 +55,7 @@ import numpy as np
 from ..config import positive, require
 from ..geometry import inside, points_to_cells, wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
+from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput, PeriodClock
 from .footprint import BodyCheck
 
 NO_INFORMATION = 255   # planning.costmap's value, repeated: control must not import planning
@@ -162,6 +162,14 @@ class _Track:
         d2[~inside] = np.inf
         return float(s_proj[int(np.argmin(d2))])           # ties: the earliest
 
+    def progress(self, xy: np.ndarray, last_m: Optional[float], window_m: float) -> float:
+        """The robot's progress along the path: the closest point to ``xy``, searched over the
+        whole path the first time (``last_m`` None), then only forward within ``window_m`` of
+        the last progress (it never decreases: a U-turn's other leg is never taken)."""
+        if last_m is None:
+            return self.closest(xy, 0.0, self.length)
+        return self.closest(xy, last_m, last_m + window_m)
+
 
 class _Grid:
     """Occupancy and costmap lookups in map coordinates; off the grid reads as unknown."""
@@ -227,6 +235,7 @@ class PurePursuit:
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self._clock = PeriodClock(0.1)   # the control period from the steps' times
         self.reset()
 
     def reset(self) -> None:
@@ -234,7 +243,7 @@ class PurePursuit:
         self._progress_m: Optional[float] = None   # arc length of the closest point so far
                                                    # (never decreases); None: not located yet
         self._xy_reached = False        # latched once within xy_goal_tolerance_m
-        self._last_now_s: Optional[float] = None
+        self._clock.reset()
 
     # ------------------------------------------------------------------ the step
     def compute(self, inp: ControlInput) -> ControlOutput:
@@ -252,14 +261,9 @@ class PurePursuit:
         if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
         xy = np.array([x, y])
-        period_s = self._period(inp.now_s)
+        period_s = self._clock(inp.now_s)
 
-        # 1. progress: the closest point, forward from the last one only
-        if self._progress_m is None:
-            self._progress_m = track.closest(xy, 0.0, track.length)
-        else:       # the window starts at the last progress: it never decreases
-            self._progress_m = track.closest(xy, self._progress_m,
-                                             self._progress_m + cfg.progress_window_m)
+        self._progress_m = track.progress(xy, self._progress_m, cfg.progress_window_m)
         remaining_m = track.length - self._progress_m
         d_goal_xy = float(np.hypot(*(track.goal - xy)))
         goal_tuple = (float(track.goal[0]), float(track.goal[1]))
@@ -384,15 +388,6 @@ class PurePursuit:
             self._progress_m = None     # a new path is searched whole once, then only forward
         return self._track
 
-    def _period(self, now_s) -> float:
-        """The control period (s) from the last two steps' times; 0.1 s until there are two."""
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            now = math.nan
-        last, self._last_now_s = self._last_now_s, now
-        dt = now - last if last is not None else math.nan
-        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 0.1
 
     def _tight_corner(self, inp: ControlInput, track: "_Track", xy: np.ndarray) -> tuple:
         """(arc length of the next tight corner ahead or None, the direction of the segment

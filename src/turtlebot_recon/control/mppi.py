@@ -85,7 +85,8 @@ from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput
+from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput,
+               PeriodClock)
 from .follower import _clean_path, _Grid, _Track
 from .footprint import BodyCheck
 
@@ -209,6 +210,7 @@ class MppiController:
             seed=settings.seed if seed is None else int(seed), **box)
         self._map_key = None            # (the occupancy array object, resolution, origin)
         self.trajectory = np.zeros((0, 3))   # the last chosen trajectory (rviz)
+        self._clock = PeriodClock(1.0 / settings.control_rate_hz)   # the period from the steps' times
         self.reset()
 
     # ------------------------------------------------------------------ contract
@@ -219,14 +221,14 @@ class MppiController:
         self._dense_s: Optional[np.ndarray] = None
         self._progress_m: Optional[float] = None
         self._xy_reached = False
-        self._last_now_s: Optional[float] = None
+        self._clock.reset()
         self._mark: Optional[tuple] = None          # (time s, progress m) of the last progress
         self._start = (0.0, 0.0, 0.0)
         self.trajectory = np.zeros((0, 3))
 
     def compute(self, inp: ControlInput) -> ControlOutput:
         cfg = self.settings
-        period_s = self._period(inp.now_s)
+        period_s = self._clock(inp.now_s)
         if not self._follow(inp.path):
             return self._stop(NO_PATH, "the path has fewer than two usable waypoints")
         track = self._track
@@ -394,11 +396,7 @@ class MppiController:
     def _advance(self, xy: np.ndarray) -> None:
         """Progress: the nearest path point, only forward within progress_window_m."""
         track = self._track
-        if self._progress_m is None:
-            self._progress_m = track.closest(xy, 0.0, track.length)
-        else:
-            self._progress_m = track.closest(xy, self._progress_m,
-                                             self._progress_m + self.settings.progress_window_m)
+        self._progress_m = track.progress(xy, self._progress_m, self.settings.progress_window_m)
 
     def _local_path(self) -> np.ndarray:
         """The dense path from the progress point over two reaches and the goal region."""
@@ -461,15 +459,6 @@ class MppiController:
         return (min(max(v, self.settings.min_linear_mps), r.max_linear_mps),
                 min(max(w, -r.max_angular_radps), r.max_angular_radps))
 
-    def _period(self, now_s) -> float:
-        """The control period (s) from the last two calls' times; 1 / control_rate_hz until then."""
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            now = math.nan
-        last, self._last_now_s = self._last_now_s, now
-        dt = now - last if last is not None else math.nan
-        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 1.0 / self.settings.control_rate_hz
 
 
 def _finite(values, n: int) -> Optional[tuple]:

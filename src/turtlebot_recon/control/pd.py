@@ -41,7 +41,7 @@ import numpy as np
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput
+from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput, PeriodClock
 from .follower import _clean_path, _Grid
 from .footprint import BodyCheck
 
@@ -88,6 +88,7 @@ class PdController:
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self._clock = PeriodClock(0.1)   # the control period from the steps' times
         self.reset()
 
     def reset(self) -> None:
@@ -95,7 +96,7 @@ class PdController:
         self._segment = 0                      # driving from points[i] to points[i + 1]
         self._xy_reached = False
         self._driving = False                  # inside the hysteresis band
-        self._last_now_s: Optional[float] = None
+        self._clock.reset()
         self._last_d: Optional[float] = None   # the errors of the last step (derivatives)
         self._last_e: Optional[float] = None
 
@@ -116,7 +117,7 @@ class PdController:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
         if not math.isfinite(v_meas):
             v_meas = 0.0                        # only the acceleration cap reads it
-        period_s = self._period(inp.now_s)
+        period_s = self._clock(inp.now_s)
         xy = np.array([x, y])
         goal = (float(points[-1, 0]), float(points[-1, 1]))
         if grid.occupancy(np.array([x]), np.array([y]))[0] >= self.body.occupied_threshold:
@@ -232,12 +233,3 @@ class PdController:
             self._points = points
         return self._points
 
-    def _period(self, now_s) -> float:
-        """The control period (s) from the last two steps' times; 0.1 s until there are two."""
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            now = math.nan
-        last, self._last_now_s = self._last_now_s, now
-        dt = now - last if last is not None else math.nan
-        return dt if math.isfinite(dt) and 0.0 < dt <= 1.0 else 0.1
