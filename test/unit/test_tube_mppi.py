@@ -21,7 +21,8 @@ UNICYCLE = RobotSpec(name="unicycle", wheel_radius_m=0.033, wheel_separation_m=0
                      max_angular_accel_radps2=1e3, radius_m=0.1)
 UNICYCLE_MPPI = MppiSettings(batch_size=300, time_steps=30, model_dt_s=DT, control_rate_hz=1 / DT,
                              min_linear_mps=-1.0, noise_std_v_mps=0.5, noise_std_w_radps=1.0,
-                             goal_region_m=3.0)
+                             goal_region_m=3.0, rotate_threshold_rad=math.pi)
+# (seed 000's controllers never turn on the spot first: rotate_threshold_rad pi switches it off)
 WIDE_TUBE = TubeMppiSettings(tube_radius_m=0.5, tube_yaw_rad=1.5)
 SMALL_MPPI = MppiSettings(batch_size=300)     # the waffle_pi's defaults, fewer samples
 

@@ -80,10 +80,6 @@ class TubeMppiController(MppiController):
         self.resets = 0
         super().__init__(settings.mppi, robot, seed)
 
-    def _rotation_shim(self, inp, pose, goal):
-        """No turning on the spot ahead of the tube: the nominal would stand while the robot
-        turns, and leave the tube (seed 000's Tube MPPI has no such step)."""
-        return None
 
     def reset(self) -> None:
         super().reset()
