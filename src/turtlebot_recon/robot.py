@@ -105,6 +105,17 @@ class RobotSpec:
         return self.footprint_length_m <= 0.0
 
 
+def footprint_args(robot: RobotSpec) -> dict:
+    """The body as the native code takes it (footprint.hpp's Footprint: a round robot has
+    length 0): footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m."""
+    if robot.is_round:
+        return dict(footprint_length_m=0.0, footprint_width_m=0.0, footprint_offset_x_m=0.0,
+                    radius_m=robot.radius_m)
+    return dict(footprint_length_m=robot.footprint_length_m,
+                footprint_width_m=robot.footprint_width_m,
+                footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
+
+
 def robot_path(name_or_path: str) -> Path:
     p = Path(name_or_path)
     if p.suffix in (".yaml", ".yml"):

@@ -51,7 +51,7 @@ import numpy as np
 from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
-from ..robot import RobotSpec
+from ..robot import RobotSpec, footprint_args
 from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers,
                ControlOutput, PeriodClock)
 from .follower import _clean_path, _Grid, _Track
@@ -122,14 +122,11 @@ class DwaController:
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
-        box = {} if robot.is_round else dict(
-            footprint_length_m=robot.footprint_length_m, footprint_width_m=robot.footprint_width_m,
-            footprint_offset_x_m=robot.footprint_offset_x_m)
         s = settings
         self.dwa = _native.Dwa(
             max_linear_mps=robot.max_linear_mps, max_angular_radps=robot.max_angular_radps,
             linear_accel_mps2=robot.max_linear_accel_mps2,
-            angular_accel_radps2=robot.max_angular_accel_radps2, radius_m=robot.radius_m, **box,
+            angular_accel_radps2=robot.max_angular_accel_radps2, **footprint_args(robot),
             outline_spacing_m=s.outline_spacing_m, linear_samples=s.linear_samples,
             angular_samples=s.angular_samples, horizon_s=s.horizon_s, dt_s=s.dt_s,
             margin_m=s.collision_margin_m, clearance_max_m=s.clearance_max_m,

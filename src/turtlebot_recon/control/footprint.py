@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
-from ..robot import RobotSpec
+from ..robot import RobotSpec, footprint_args
 
 SWEEP_STEP_RAD = math.radians(1.0)   # yaw samples of an in-place turn: a corner 0.257 m out
                                      # moves 4.5 mm between them...
@@ -40,12 +40,10 @@ class BodyCheck:
     occupied_threshold: int = 65      # occupancy (0..100) >= this is an obstacle (map_server)
 
     def _args(self, round_body: bool) -> dict:
-        r = self.robot
-        if round_body or r.is_round:
-            return dict(footprint_length_m=0.0, footprint_width_m=0.0, footprint_offset_x_m=0.0,
-                        radius_m=r.radius_m)
-        return dict(footprint_length_m=r.footprint_length_m, footprint_width_m=r.footprint_width_m,
-                    footprint_offset_x_m=r.footprint_offset_x_m, radius_m=r.radius_m)
+        if round_body:
+            return dict(footprint_args(self.robot), footprint_length_m=0.0, footprint_width_m=0.0,
+                        footprint_offset_x_m=0.0)
+        return footprint_args(self.robot)
 
     def clearance(self, inp, poses, max_m: float, disc: bool = False) -> np.ndarray:
         """float (n,): metres from the body (``disc``: the turning disc) at each (x, y, yaw) of

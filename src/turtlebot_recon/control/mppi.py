@@ -84,7 +84,7 @@ import numpy as np
 from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
-from ..robot import RobotSpec
+from ..robot import RobotSpec, footprint_args
 from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput,
                PeriodClock)
 from .follower import _clean_path, _Grid, _Track
@@ -199,15 +199,12 @@ class MppiController:
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
-        box = {} if robot.is_round else dict(
-            footprint_length_m=robot.footprint_length_m, footprint_width_m=robot.footprint_width_m,
-            footprint_offset_x_m=robot.footprint_offset_x_m)
         self._opt = _native.MppiOptimizer(
             settings.native_config(), max_linear_mps=robot.max_linear_mps,
             max_angular_radps=robot.max_angular_radps,
             max_linear_accel_mps2=robot.max_linear_accel_mps2,
-            max_angular_accel_radps2=robot.max_angular_accel_radps2, radius_m=robot.radius_m,
-            seed=settings.seed if seed is None else int(seed), **box)
+            max_angular_accel_radps2=robot.max_angular_accel_radps2,
+            seed=settings.seed if seed is None else int(seed), **footprint_args(robot))
         self._map_key = None            # (the occupancy array object, resolution, origin)
         self.trajectory = np.zeros((0, 3))   # the last chosen trajectory (rviz)
         self._clock = PeriodClock(1.0 / settings.control_rate_hz)   # the period from the steps' times

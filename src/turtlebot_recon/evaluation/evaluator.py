@@ -81,8 +81,7 @@ class RunLog:
         self.poses: list = []                  # (t s, x m, y m, yaw rad) world, every sample
         self.distance_m = 0.0                  # along every ground-truth sample, not only path's
         self.last_xy: Optional[tuple] = None   # the latest true position (world, m)
-        self.ate_sq_m2: list = []              # squared position errors, one per ATE sample
-        self.ate_pairs: list = []              # (estimate x, y, true x, y), map frame, per sample
+        self.ate_pairs: list = []              # (estimate x, y, true x, y), map frame, per ATE sample
         self.ate_odom_sq_m2: list = []         # the same for the raw odometry (odom frame), with SLAM
         self.collisions = 0                    # the simulator's contact count
         self.collisions_at: list = []          # (x m, y m in the map frame, t s on the report's clock)
@@ -140,7 +139,6 @@ class RunLog:
         """One ATE sample: the estimated base position (map frame) vs the true one (world), m;
         with SLAM also the odometry's (odom frame: the map frame without corrections)."""
         true_xy = world_to_map(np.array([true_world_xy], float), self.start)[0]
-        self.ate_sq_m2.append(float((estimate_xy[0] - true_xy[0]) ** 2 + (estimate_xy[1] - true_xy[1]) ** 2))
         self.ate_pairs.append((float(estimate_xy[0]), float(estimate_xy[1]), float(true_xy[0]), float(true_xy[1])))
         if odometry_xy is not None:
             self.ate_odom_sq_m2.append(float((odometry_xy[0] - true_xy[0]) ** 2 + (odometry_xy[1] - true_xy[1]) ** 2))
@@ -155,7 +153,10 @@ class RunLog:
 
     def ate_m(self) -> Optional[float]:
         """The RMSE of the ATE samples (m); None without one."""
-        return math.sqrt(float(np.mean(self.ate_sq_m2))) if self.ate_sq_m2 else None
+        if not self.ate_pairs:
+            return None
+        p = np.asarray(self.ate_pairs, float)
+        return math.sqrt(float(np.mean(np.sum((p[:, :2] - p[:, 2:]) ** 2, axis=1))))
 
     def poses_in_map(self) -> np.ndarray:
         """(n, 4): every ground-truth sample as (absolute sim time s, x, y, yaw) in the map
@@ -236,7 +237,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
         "distance_to_99_m": None if d99 is None else round(d99, 3),   # along the recorded path
         "F_cells": coverage.cells, "F_m2": round(coverage.area_m2, 2),
         "F_robot_radius_m": robot.radius_m, "goals": len(log.goals),
-        "ate_samples": len(log.ate_sq_m2), "sim_start_s": round(log.t0_s, 2),
+        "ate_samples": len(log.ate_pairs), "sim_start_s": round(log.t0_s, 2),
         "map": None if final_map is None else final_map.yaml_path,
         "collisions_at": list(log.collisions_at),   # (x, y) m in the map frame and t s (as time_to_*) of each
     })

@@ -24,7 +24,7 @@ import numpy as np
 from .. import _native, geometry
 from ..config import positive, require
 from ..control.footprint import BodyCheck
-from ..robot import RobotSpec
+from ..robot import RobotSpec, footprint_args
 from .costmap import PlanningError
 
 
@@ -100,16 +100,6 @@ class LatticePath:
     length_m: float          # driven
     turned_rad: float        # turned in place (costs settings.turn_cost_m_per_rad per radian)
     reversed_m: float        # of length_m, driven backward
-
-
-def footprint_args(robot: RobotSpec) -> dict:
-    """The footprint as ``_native.plan_lattice`` takes it (a round robot: length 0)."""
-    if robot.is_round:
-        return dict(footprint_length_m=0.0, footprint_width_m=0.0, footprint_offset_x_m=0.0,
-                    radius_m=robot.radius_m)
-    return dict(footprint_length_m=robot.footprint_length_m,
-                footprint_width_m=robot.footprint_width_m,
-                footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
 
 
 def search_args(robot: RobotSpec, settings: LatticeSettings) -> dict:
