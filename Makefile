@@ -23,7 +23,7 @@ DURATION ?= 120
 RVIZ     ?= false
 OUTPUT   ?= output/run
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control slam-log slam-eval worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
@@ -40,6 +40,8 @@ help:
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-control  seed 000's noisy unicycle and racetrack (MPPI vs Tube MPPI) and the controllers'"
 	@echo "                 cycle times -> output/bench/control.json, figures in output/bench/control/ (RUNS=N)"
+	@echo "make bench-nav   every controller over 30 start/goal pairs per world (house, office, maze) in the"
+	@echo "                 simulator, drifting odometry + localisation -> output/bench/nav.json (POSE=truth, PAIRS=N)"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
 	@echo "                 output/bench/explore/; held-out worlds (garden, doors) reported apart (heldout_*)"
 	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
@@ -104,6 +106,14 @@ bench-map: build
 # cycle times of MPPI, its numpy twin, Tube MPPI (and DWA once bound); RUNS=N runs per controller in (a).
 bench-control: build
 	$(ENV) python test/benchmarks/bench_control.py $(if $(RUNS),--runs $(RUNS))
+
+# Every controller over the same 30 start/goal pairs per world (house, office, maze), the
+# navigator's core driving the simulator outside ROS, drifting odometry + map localisation
+# (POSE=truth: the true pose); CONTROLLERS=a,b WORLDS=a,b PAIRS=N JOBS=N RESUME=1.
+bench-nav: build
+	@$(ENV) python test/benchmarks/bench_nav.py $(if $(CONTROLLERS),--controllers $(CONTROLLERS)) \
+	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(PAIRS),--pairs $(PAIRS)) $(if $(JOBS),--jobs $(JOBS)) \
+	  $(if $(POSE),--pose $(POSE)) $(if $(RESUME),--resume)
 
 # Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
 # detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).
