@@ -28,7 +28,7 @@ OUTPUT   ?= output/run
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         explore WORLD=$(WORLD) headless; map, plots and report in OUTPUT=$(OUTPUT)"
-	@echo "                 (ROBOT=$(ROBOT) STRATEGY=$(STRATEGY) CONTROLLER=$(CONTROLLER): pure_pursuit | dwa | pd)"
+	@echo "                 (ROBOT=$(ROBOT) STRATEGY=$(STRATEGY) CONTROLLER=$(CONTROLLER): pure_pursuit | dwa | pd | mppi | tube_mppi)"
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
 	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"

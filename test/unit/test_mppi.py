@@ -332,6 +332,35 @@ def test_facing_away_from_the_path_it_turns_in_place_first():
     assert outs[-1].status == ARRIVED and poses[:, 0].min() > 1.0 - 0.05
 
 
+@pytest.mark.parametrize("bend_deg", [50, 55, 58])
+def test_from_rest_with_the_path_bending_away_it_drives_on_not_blocked(bend_deg):
+    # The path 50-58 deg off the heading (under the shim's 60): it turns while driving, never
+    # blocked, and arrives.
+    occ = room()
+    a = math.radians(bend_deg)
+    path = [(1.0, 1.0), (1.0 + 3.0 * math.cos(a), 1.0 + 3.0 * math.sin(a))]
+    poses, outs = drive(controller(), occ, (1.0, 1.0, 0.0), path, 40.0)
+    assert all(o.status != BLOCKED for o in outs), [o.detail for o in outs if o.status == BLOCKED][:1]
+    assert outs[-1].status == ARRIVED
+
+
+def test_a_first_iteration_standing_still_is_not_blocked():
+    # bench-nav's house pair 11: the waffle_pi at rest, the plan 55 deg off its heading (under the
+    # shim's 60), a wall 0.55 m to its side. One iteration from rest stands still (moves 4 cm,
+    # turns 0.10 rad over 2.8 s: its noise averages out between turning left and right); the warm
+    # start builds a turn in 2-3 more. Counted as blocked at once, the warm start was dropped,
+    # the next iteration stood still again, and the navigator held there forever.
+    from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
+    from turtlebot_recon.sim import load_world
+    world = load_world("house")
+    nav = Navigation(NavigationSettings(controller="mppi"), WAFFLE)
+    nav.update_map(np.where(world.free, 0, 100).astype(np.int8), world.resolution, world.origin)
+    nav.set_goal(4.875, 1.275)
+    commands = [nav.step(0.1 * k, (10.425, 8.225, 2.645), (0.0, 0.0)) for k in range(8)]
+    assert nav.status == "active" and nav.last_output.status != BLOCKED, nav.last_output.detail
+    assert max(abs(w) for _, w in commands) > 0.1
+
+
 def test_refuses_to_drive_into_a_wall():
     # A wall across the room at x in [3.0, 3.2) and a plan straight through it to (4.5, 2): the
     # robot stops short of it, says blocked, and its box never touches the wall.

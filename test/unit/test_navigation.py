@@ -104,7 +104,23 @@ def test_blocked_counts_once_per_map(nav, monkeypatch):
         if maps < 4:
             assert nav.status == "active", f"failed on map {maps}: {nav.reason}"
             nav.update_map(room(), RES, (0.0, 0.0))
-    assert nav.status == "failed" and "blocked on 4 maps in a row" in nav.reason and "unknown cell ahead" in nav.reason
+    assert nav.status == "failed" and "blocked 4 times in a row" in nav.reason and "unknown cell ahead" in nav.reason
+
+
+def test_blocked_on_a_map_that_never_changes_fails_after_the_replan_periods(nav, monkeypatch):
+    """A latched map (map_server's, mode:=localization's) never comes again: a blocked
+    controller counts once per replan_period_s (2 s) there, and the goal fails after the
+    fourth try instead of holding forever."""
+    from turtlebot_recon.control import ControlOutput
+    monkeypatch.setattr(nav.controller, "compute",
+                        lambda inp: ControlOutput(0.0, 0.0, "blocked", detail="wall ahead"))
+    nav.set_goal(3.0, 2.0)
+    t = 0.0
+    while nav.status == "active" and t < 30.0:
+        assert nav.step(t, (1.0, 1.0, 0.0), (0.0, 0.0)) == (0.0, 0.0)
+        t += 0.1
+    assert nav.status == "failed" and "blocked 4 times in a row" in nav.reason and "wall ahead" in nav.reason
+    assert 6.0 - 1e-6 <= t <= 8.0      # tries at 0, 2, 4 and 6 s
 
 
 def test_a_goal_sent_before_the_map_covers_the_robot_waits_for_the_next_maps():
@@ -127,7 +143,7 @@ def test_a_goal_sent_before_the_map_covers_the_robot_waits_for_the_next_maps():
             nav.step(k + 0.1 * i, (1.0, 1.0, 0.0), (0.0, 0.0))
         if k < 3:
             assert nav.status == "active", f"failed on map {k + 1}: {nav.reason}"
-    assert nav.status == "failed" and "no known cell under the robot on 4 maps in a row" in nav.reason
+    assert nav.status == "failed" and "no known cell under the robot 4 times in a row" in nav.reason
 
 
 def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():

@@ -23,7 +23,9 @@ One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
               ``collision_margin_m``, fails the exact body check (BodyCheck.stays_clear); no
               ``stall_distance_m`` of progress along the path in ``progress_timeout_s``; or the
               chosen trajectory stands still (moves < ``stall_distance_m``, turns <
-              ``stall_turn_rad``) farther than ``stall_distance_m`` from the goal's tolerance:
+              ``stall_turn_rad``) for ``stall_time_s`` in a row farther than
+              ``stall_distance_m`` from the goal's tolerance (one iteration from rest stands
+              still where the path bends away; the warm start turns it in 2-3):
               "blocked", zero command (the navigator replans).
 6. command    the sequence's first control, clamped to the robot's limits (it already keeps
               them: the model does): "rotating" when it turns nearly on the spot, else
@@ -147,7 +149,9 @@ class MppiSettings:
     check_horizon_s: float = 0.5         # s of the chosen trajectory checked with the exact body
                                          # check before a command goes out (5 periods at 10 Hz)
     stall_distance_m: float = 0.05       # m, a chosen trajectory that moves less than this and
-    stall_turn_rad: float = 0.1          # rad, turns less than this, away from the goal: blocked
+    stall_turn_rad: float = 0.1          # rad, turns less than this, away from the goal, for
+    stall_time_s: float = 1.0            # s in a row: blocked (the first iterations from rest,
+                                         # before the warm start builds up, stand still too)
     progress_timeout_s: float = 4.0      # s without stall_distance_m of progress along the path:
                                          # blocked (a robot hovering before a wall; a turn in
                                          # place toward the path takes < 2 s)
@@ -160,7 +164,8 @@ class MppiSettings:
                  "control_rate_hz", "path_spacing_m", "progress_window_m", "xy_goal_tolerance_m",
                  "yaw_goal_tolerance_rad", "rotate_threshold_rad", "rotate_lookahead_m",
                  "rotate_speed_max_radps", "rotate_speed_min_radps", "rotate_gain_per_s",
-                 "check_horizon_s", "stall_distance_m", "stall_turn_rad", "progress_timeout_s")
+                 "check_horizon_s", "stall_distance_m", "stall_turn_rad", "stall_time_s",
+                 "progress_timeout_s")
         require(self.batch_size >= 2 and self.time_steps >= 2, src, "batch_size",
                 "batch_size and time_steps must be >= 2")
         for key in ("noise_std_v_mps", "noise_std_w_radps", "goal_distance_weight",
@@ -220,6 +225,7 @@ class MppiController:
         self._xy_reached = False
         self._clock.reset()
         self._mark: Optional[tuple] = None          # (time s, progress m) of the last progress
+        self._still_since: Optional[float] = None   # time s the chosen trajectory began standing still
         self._start = (0.0, 0.0, 0.0)
         self.trajectory = np.zeros((0, 3))
 
@@ -285,10 +291,11 @@ class MppiController:
         moved = np.hypot(*(plan.states[:, :2] - plan.states[0, :2]).T).max()
         turned = np.abs(plan.states[:, 2] - plan.states[0, 2]).max()
         near_goal = d_goal <= cfg.xy_goal_tolerance_m + cfg.stall_distance_m   # a short way left
-        if moved < cfg.stall_distance_m and turned < cfg.stall_turn_rad and not near_goal:
-            return self._stop(BLOCKED, f"the best of {k} rollouts stands still ({plan.colliding} "
-                              f"collide): the way along the path is blocked; robot at "
-                              f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
+        still = moved < cfg.stall_distance_m and turned < cfg.stall_turn_rad and not near_goal
+        if self._stood_still(still, inp.now_s):
+            return self._stop(BLOCKED, f"the best of {k} rollouts has stood still for "
+                              f"{cfg.stall_time_s} s ({plan.colliding} collide): the way along the "
+                              f"path is blocked; robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
         status = ROTATING if abs(v) < 0.02 and abs(w) > 0.1 else FOLLOWING
         return ControlOutput(v, w, status, goal)
 
@@ -342,6 +349,19 @@ class MppiController:
         self.trajectory = out["states"]
         return MppiPlan(out["controls"], out["states"], float(out["min_cost"]),
                         int(out["colliding"]), bool(out["all_collide"]), bool(out["collides"]))
+
+    def _stood_still(self, still: bool, now_s) -> bool:
+        """Whether the chosen trajectory has stood still for stall_time_s in a row."""
+        try:
+            now = float(now_s)
+        except (TypeError, ValueError):
+            now = math.nan
+        if not still or not math.isfinite(now):
+            self._still_since = None
+            return False
+        if self._still_since is None or now < self._still_since:
+            self._still_since = now
+        return now - self._still_since >= self.settings.stall_time_s
 
     def _no_progress(self, now_s) -> str:
         """Why the robot counts as stuck (no stall_distance_m of progress along the path in
@@ -444,7 +464,7 @@ class MppiController:
         """Zero command; the warm start is dropped (the next plan starts from rest)."""
         if status in (BLOCKED, NO_PATH):
             self._opt.reset()
-            self._mark = None
+            self._mark = self._still_since = None
         self.trajectory = np.zeros((0, 3))
         return ControlOutput(0.0, 0.0, status, target, detail)
 

@@ -39,8 +39,9 @@ class NavigationSettings:
     base_frame: str = "base_footprint"
     controller_rate_hz: float = 10.0     # control loop (sim time)
     replan_period_s: float = 2.0         # replan at least this often while following
-    max_blocked_replans: int = 3         # the controller reports blocked on this many maps in a row
-                                         # (one report per map counts): fail
+    max_blocked_replans: int = 3         # the controller reports blocked on more tries than this in
+                                         # a row (one per new map, or per replan_period_s on a map
+                                         # that never changes): fail
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
     controller: str = DEFAULT_CONTROLLER  # which drives: a name of control.CONTROLLERS
@@ -135,6 +136,7 @@ class Navigation:
         self._need_plan = False
         self._blocked = 0
         self._blocked_map: Optional[MapView] = None   # the map the last blocked report counted on
+        self._blocked_at = -math.inf                  # ... and when (s)
         self.last_output = None
 
     # ------------------------------------------------------------------ inputs
@@ -145,7 +147,7 @@ class Navigation:
         self.goal = (x, y, yaw)
         self._clear_path()
         self.status, self.reason = "active", ""
-        self._need_plan, self._blocked, self._blocked_map = True, 0, None
+        self._need_plan, self._blocked, self._blocked_map, self._blocked_at = True, 0, None, -math.inf
         self.controller.reset()
 
     def fail(self, reason: str) -> None:
@@ -203,20 +205,22 @@ class Navigation:
             # at ~1 Hz, the controller runs at 10 Hz; the cell ahead may be unknown only
             # because the last map predates the robot's arrival). Hold; count and replan once
             # per map (the robot stands still, so a replan on the same map gives the same path).
-            self._hold("blocked", f"near ({pose[0]:.2f}, {pose[1]:.2f})", out.detail)
+            self._hold(now_s, "blocked", f"near ({pose[0]:.2f}, {pose[1]:.2f})", out.detail)
             return 0.0, 0.0
         self._blocked, self._blocked_map = 0, None
         return out.linear_mps, out.angular_radps
 
-    def _hold(self, what: str, where: str, detail: str = "") -> None:
-        """Stand still and plan again on the next map: counted once per map, the goal fails
-        when ``what`` happens on more than max_blocked_replans maps in a row."""
-        if self._blocked_map is self.map:
+    def _hold(self, now_s: float, what: str, where: str, detail: str = "") -> None:
+        """Stand still and plan again: a try counts once per new map (a replan on the same
+        map meets the same obstacle), or once per replan_period_s on a map that never changes
+        (map_server's, mode:=localization's); the goal fails when ``what`` happens on more
+        than max_blocked_replans tries in a row."""
+        if self._blocked_map is self.map and now_s - self._blocked_at < self.s.replan_period_s:
             return
-        self._blocked_map = self.map
+        self._blocked_map, self._blocked_at = self.map, now_s
         self._blocked += 1
         if self._blocked > self.s.max_blocked_replans:
-            self._finish("failed", f"{what} on {self._blocked} maps in a row {where}"
+            self._finish("failed", f"{what} {self._blocked} times in a row {where}"
                                    + (f": {detail}" if detail else ""))
         else:
             self._need_plan = True
@@ -332,7 +336,7 @@ class Navigation:
             if not m.inside(cell) or m.occupancy[cell] < 0:
                 # a goal sent before the mapper has inserted a scan (startup): the map does not
                 # cover the robot yet; wait for the next maps rather than fail on the first
-                self._hold("no known cell under the robot", f"at {where}")
+                self._hold(now_s, "no known cell under the robot", f"at {where}")
                 return False
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
                                           f"{where} where its footprint fits")
