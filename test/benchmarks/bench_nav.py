@@ -225,18 +225,27 @@ def run_one(task: dict) -> dict:
 
 
 # ---------------------------------------------------------------------- aggregation
-FIGURES = ("success_rate", "time_s", "path_ratio", "speed_ratio", "clearance_min_m", "collisions", "jerk",
-           "angular_jerk", "stops", "reversals", "step_ms_p95")
+FIGURES = ("success_rate", "time_s", "time_common_s", "path_ratio", "speed_ratio", "avg_speed_ratio",
+           "clearance_min_m", "collisions", "jerk", "angular_jerk", "stops", "reversals", "step_ms_p95")
 
 
-def summarise(runs: list) -> dict:
+def summarise(runs: list, common: set) -> dict:
+    """One controller's runs. ``common``: the (world, index) pairs every controller reached,
+    over which ``time_common_s`` compares times on equal terms (a controller failing the hard
+    pairs would otherwise look fast)."""
     ok = [r for r in runs if r["success"]]
+
     def mean(key, rows):
         vals = [r[key] for r in rows if r.get(key) is not None]
         return round(float(np.mean(vals)), 4) if vals else None
     clear = [r["clearance_min_m"] for r in runs if r.get("clearance_min_m") is not None]
+    # the mean speed over the whole trip (turns in place and stops included) over the maximum
+    avg_speed = [r["driven_m"] / max(r["time_s"], 1e-6) / load_robot(r["robot"]).max_linear_mps for r in ok]
     return dict(runs=len(runs), success_rate=round(len(ok) / max(len(runs), 1), 4),
-                time_s=mean("time_s", ok), path_ratio=mean("path_ratio", ok), speed_ratio=mean("speed_ratio", runs),
+                time_s=mean("time_s", ok),
+                time_common_s=mean("time_s", [r for r in ok if (r["world"], r["index"]) in common]),
+                path_ratio=mean("path_ratio", ok), speed_ratio=mean("speed_ratio", runs),
+                avg_speed_ratio=round(float(np.mean(avg_speed)), 4) if avg_speed else None,
                 clearance_min_m=round(min(clear), 4) if clear else None,
                 collisions=int(sum(r.get("collisions", 0) for r in runs)), jerk=mean("jerk", runs),
                 angular_jerk=mean("angular_jerk", runs), stops=mean("stops", runs), reversals=mean("reversals", runs),
@@ -246,10 +255,11 @@ def summarise(runs: list) -> dict:
 
 
 def pick(per_controller: dict) -> str:
-    """No collision first, then the highest success rate, then the shortest mean time to goal."""
+    """No collision first, then the highest success rate, then the shortest mean time to goal
+    over the pairs every controller reached."""
     return min(per_controller, key=lambda c: (per_controller[c]["collisions"] > 0,
                                               -per_controller[c]["success_rate"],
-                                              per_controller[c]["time_s"] or math.inf))
+                                              per_controller[c]["time_common_s"] or math.inf))
 
 
 def main() -> int:
@@ -306,26 +316,35 @@ def main() -> int:
                       f"{'ok' if r['success'] else 'FAIL ' + r['status'] + ' ' + r.get('reason', '')[:100]}", flush=True)
     runs = [done[key(t)] for t in tasks]
     figures, per_world = {}, {}
-    per_controller = {c: summarise([r for r in runs if r["controller"] == c]) for c in controllers}
+    reached = {}
+    for r in runs:
+        reached.setdefault((r["world"], r["index"]), set()).add(r["controller"] if r["success"] else None)
+    common = {k for k, cs in reached.items() if None not in cs}
+    per_controller = {c: summarise([r for r in runs if r["controller"] == c], common) for c in controllers}
     for w in worlds:
-        per_world[w] = {c: summarise([r for r in runs if r["controller"] == c and r["world"] == w])
+        per_world[w] = {c: summarise([r for r in runs if r["controller"] == c and r["world"] == w], common)
                         for c in controllers}
     for c, s in per_controller.items():
         for f in FIGURES:
-            name = "success_rate" if f == "success_rate" else f
-            figures[f"nav_{name}_{c}"] = s[f]
+            figures[f"nav_{f}_{c}"] = s[f]
         figures[f"nav_failures_{c}"] = s["failures"]
     figures["nav_pick"] = pick(per_controller)
+    figures["nav_common_pairs"] = len(common)
     figures["worlds"] = {w: {c: {k: v for k, v in s.items() if k != "failures"} for c, s in d.items()}
                          for w, d in per_world.items()}
     figures["pose"] = args.pose
     figures["pairs_per_world"] = args.pairs
     figures["wall_s"] = round(time.monotonic() - t0, 1)
-    print("\ncontroller      success  time_s  path  speed  clear_m  coll  jerk   stops  rev   step_p95_ms")
-    for c, s in per_controller.items():
-        print(f"{c:<14} {s['success_rate']:>7.2f}  {s['time_s'] or 0:>6.1f}  {s['path_ratio'] or 0:>4.2f}  "
-              f"{s['speed_ratio'] or 0:>5.2f}  {s['clearance_min_m'] or 0:>7.3f}  {s['collisions']:>4}  "
-              f"{s['jerk'] or 0:>5.2f}  {s['stops'] or 0:>5.2f}  {s['reversals'] or 0:>4.2f}  {s['step_ms_p95'] or 0:>6.2f}")
+    head = ("controller", "success", "time_s", "common_s", "path", "speed", "avg_spd", "clear_m", "coll", "jerk",
+            "stops", "rev", "p95_ms")
+    for w, d in [*per_world.items(), ("all", per_controller)]:
+        print(f"\n{w}: " + "  ".join(f"{h:>8}" for h in head))
+        for c, s in d.items():
+            vals = [s[k] for k in ("success_rate", "time_s", "time_common_s", "path_ratio", "speed_ratio",
+                                   "avg_speed_ratio", "clearance_min_m", "collisions", "jerk", "stops", "reversals",
+                                   "step_ms_p95")]
+            print(f"{'':>{len(w) + 2}}{c:>8}  " + "  ".join(f"{v:>8.3f}" if isinstance(v, float) else f"{v!s:>8}"
+                                                          for v in vals))
     write("nav", figures)
     return 0
 

@@ -201,7 +201,8 @@ class NumpyMppi:
         s = self.s
         cost = np.zeros(x.shape[0])
         d_goal = math.hypot(goal[0] - pose[0], goal[1] - pose[1])
-        near_goal = d_goal <= s.goal_region_m
+        path_left = math.hypot(path[0, 0] - pose[0], path[0, 1] - pose[1]) + np.hypot(*np.diff(path, axis=0).T).sum()
+        near_goal = max(d_goal, path_left) <= s.goal_region_m
         if near_goal:
             cost += s.goal_distance_weight * np.hypot(x - goal[0], y - goal[1]).mean(axis=1)
         if goal_yaw is not None and d_goal <= s.goal_heading_threshold_m:

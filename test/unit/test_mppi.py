@@ -344,6 +344,35 @@ def test_from_rest_with_the_path_bending_away_it_drives_on_not_blocked(bend_deg)
     assert outs[-1].status == ARRIVED
 
 
+def test_a_goal_around_a_corner_within_the_goal_region_is_reached_along_the_path():
+    # The goal 0.8 m away in a straight line, behind a wall the path goes around (2.6 m left):
+    # the goal region counts by the path left too, so the path critics lead it round the wall's
+    # end. By the straight line alone the goal critic pulled it against the wall, the path
+    # critics resting, and it hovered there (bench-nav, office pair 1, for minutes).
+    occ = room()
+    occ[27:29, :32] = 100                                 # y in [1.35, 1.45), x < 1.6
+    path = [(1.0, 1.0), (2.0, 1.0), (2.0, 1.8), (1.0, 1.8)]
+    poses, outs = drive(controller(), occ, (1.0, 1.0, 0.0), path, 40.0)
+    assert outs[-1].status == ARRIVED, outs[-1].detail
+    assert math.hypot(poses[-1, 0] - 1.0, poses[-1, 1] - 1.8) <= 0.1 + 0.02
+    assert (exact_clearance(occ, poses) > 0).all()
+
+
+def test_a_robot_that_neither_moves_nor_turns_is_blocked_across_new_paths():
+    # progress_timeout_s is measured on the robot, not along the path: a path replaced every
+    # 2 s (the navigator replans) does not restart it.
+    ctrl = controller()
+    occ = room()
+    outs = []
+    for k in range(60):
+        shift = 0.01 * (k // 20)                          # a slightly different plan every 2 s
+        path = [(1.0, 2.0), (2.0, 2.0 + shift), (4.0, 2.0)]
+        outs.append(ctrl.compute(make_input((1.0, 2.0, 0.0), path, occ, now_s=0.1 * k)))
+        if outs[-1].status == BLOCKED:
+            break
+    assert outs[-1].status == BLOCKED and "in 4.1 s" in outs[-1].detail, outs[-1].detail
+
+
 def test_a_first_iteration_standing_still_is_not_blocked():
     # bench-nav's house pair 11: the waffle_pi at rest, the plan 55 deg off its heading (under the
     # shim's 60), a wall 0.55 m to its side. One iteration from rest stands still (moves 4 cm,

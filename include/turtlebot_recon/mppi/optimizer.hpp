@@ -203,7 +203,12 @@ class Optimizer {
   void score(const Pose& start, const Goal& goal) {
     costs_.setZero();
     const double goal_distance = std::hypot(goal.x - start.x, goal.y - start.y);
-    const bool near_goal = goal_distance <= cfg_.optimizer.goal_region_m;
+    // In the goal region by the path left as well as by the straight line: a goal around a
+    // corner 0.85 m away, with the path critics resting, held the robot against the corner.
+    // The local path ends at the goal when that is near (else it is longer than the region).
+    const double path_left =
+        std::hypot(path_.x(0) - start.x, path_.y(0) - start.y) + path_.length();
+    const bool near_goal = std::max(goal_distance, path_left) <= cfg_.optimizer.goal_region_m;
     const CriticData data{x_, y_, yaw_, cos_, sin_, v_, w_, start, goal, goal_distance, near_goal,
                           path_, *field_, clear_, body_,
                           cfg_.limits, cfg_.optimizer.model_dt_s, reach_m(),

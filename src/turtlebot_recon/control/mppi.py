@@ -20,8 +20,10 @@ One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
 4. MPPI       one iteration (optimizer.hpp) on the dense path from the progress point; the
               distance field is rebuilt only for a new occupancy array.
 5. checks     every rollout collides; the chosen trajectory's first ``check_horizon_s``, every
-              ``collision_margin_m``, fails the exact body check (BodyCheck.stays_clear); no
-              ``stall_distance_m`` of progress along the path in ``progress_timeout_s``; or the
+              ``collision_margin_m``, fails the exact body check (BodyCheck.stays_clear); the
+              robot has neither moved ``stall_distance_m`` nor turned ``stall_turn_rad`` in
+              ``progress_timeout_s`` (across replans: each new path would restart a count
+              along the path); or the
               chosen trajectory stands still (moves < ``stall_distance_m``, turns <
               ``stall_turn_rad``) for ``stall_time_s`` in a row farther than
               ``stall_distance_m`` from the goal's tolerance (one iteration from rest stands
@@ -152,9 +154,9 @@ class MppiSettings:
     stall_turn_rad: float = 0.1          # rad, turns less than this, away from the goal, for
     stall_time_s: float = 1.0            # s in a row: blocked (the first iterations from rest,
                                          # before the warm start builds up, stand still too)
-    progress_timeout_s: float = 4.0      # s without stall_distance_m of progress along the path:
-                                         # blocked (a robot hovering before a wall; a turn in
-                                         # place toward the path takes < 2 s)
+    progress_timeout_s: float = 4.0      # s in which the robot neither moved stall_distance_m nor
+                                         # turned stall_turn_rad: blocked (hovering before a wall;
+                                         # a turn in place toward the path takes < 2 s)
     rollout_markers: int = 50            # rollouts kept for rviz
 
     def validate(self, src: str) -> None:
@@ -224,7 +226,7 @@ class MppiController:
         self._progress_m: Optional[float] = None
         self._xy_reached = False
         self._clock.reset()
-        self._mark: Optional[tuple] = None          # (time s, progress m) of the last progress
+        self._mark: Optional[tuple] = None          # (time s, x, y, yaw) where the robot last moved
         self._still_since: Optional[float] = None   # time s the chosen trajectory began standing still
         self._start = (0.0, 0.0, 0.0)
         self.trajectory = np.zeros((0, 3))
@@ -284,7 +286,7 @@ class MppiController:
                               f"bring the body within {cfg.collision_margin_m} m of an obstacle "
                               f"({plan.colliding} of {k} rollouts collide); robot at "
                               f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
-        stuck = self._no_progress(inp.now_s)
+        stuck = self._no_progress(inp.now_s, pose)
         if stuck:
             return self._stop(BLOCKED, f"{stuck}; {plan.colliding} of {k} rollouts collide; "
                               f"robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
@@ -363,9 +365,11 @@ class MppiController:
             self._still_since = now
         return now - self._still_since >= self.settings.stall_time_s
 
-    def _no_progress(self, now_s) -> str:
-        """Why the robot counts as stuck (no stall_distance_m of progress along the path in
-        progress_timeout_s), or ""."""
+    def _no_progress(self, now_s, pose) -> str:
+        """Why the robot counts as stuck (neither stall_distance_m moved nor stall_turn_rad
+        turned in progress_timeout_s), or "". Measured on the robot, not along the path: the
+        navigator replans every few seconds, and progress along each new path started over
+        (a robot hovering 0.85 m from its goal held there for minutes)."""
         cfg = self.settings
         try:
             now = float(now_s)
@@ -373,13 +377,15 @@ class MppiController:
             return ""
         if not math.isfinite(now):
             return ""
-        if self._mark is None or self._progress_m >= self._mark[1] + cfg.stall_distance_m \
-                or now < self._mark[0]:
-            self._mark = (now, self._progress_m)
+        x, y, yaw = pose
+        m = self._mark
+        if m is None or now < m[0] or math.hypot(x - m[1], y - m[2]) >= cfg.stall_distance_m \
+                or abs(wrap_angle(yaw - m[3])) >= cfg.stall_turn_rad:
+            self._mark = (now, x, y, yaw)
             return ""
-        if now - self._mark[0] > cfg.progress_timeout_s:
-            return (f"no progress along the path in {now - self._mark[0]:.1f} s (stuck at "
-                    f"{self._mark[1]:.2f} of {self._track.length:.2f} m)")
+        if now - m[0] > cfg.progress_timeout_s:
+            return (f"moved < {cfg.stall_distance_m} m and turned < {cfg.stall_turn_rad} rad in "
+                    f"{now - m[0]:.1f} s, {self._track.length - self._progress_m:.2f} m of path left")
         return ""
 
     def _set_map(self, occupancy, resolution: float, origin: tuple) -> None:
@@ -407,7 +413,6 @@ class MppiController:
                                            np.interp(s, track.s, points[:, 1])])
             self._progress_m = None
             self._xy_reached = False
-            self._mark = None
         return True
 
     def _advance(self, xy: np.ndarray) -> None:
