@@ -337,14 +337,13 @@ def main() -> int:
     figures["wall_s"] = round(time.monotonic() - t0, 1)
     head = ("controller", "success", "time_s", "common_s", "path", "speed", "avg_spd", "clear_m", "coll", "jerk",
             "stops", "rev", "p95_ms")
-    for w, d in [*per_world.items(), ("all", per_controller)]:
-        print(f"\n{w}: " + "  ".join(f"{h:>8}" for h in head))
+    for w, d in [*per_world.items(), ("all worlds", per_controller)]:
+        print(f"\n{w}\n{head[0]:<14}" + "".join(f"{h:>9}" for h in head[1:]))
         for c, s in d.items():
             vals = [s[k] for k in ("success_rate", "time_s", "time_common_s", "path_ratio", "speed_ratio",
                                    "avg_speed_ratio", "clearance_min_m", "collisions", "jerk", "stops", "reversals",
                                    "step_ms_p95")]
-            print(f"{'':>{len(w) + 2}}{c:>8}  " + "  ".join(f"{v:>8.3f}" if isinstance(v, float) else f"{v!s:>8}"
-                                                          for v in vals))
+            print(f"{c:<14}" + "".join(f"{v:>9.3f}" if isinstance(v, float) else f"{v!s:>9}" for v in vals))
     write("nav", figures)
     return 0
 
