@@ -32,10 +32,14 @@ reversals (the commanded v changing sign). Runs go in parallel (--jobs, default 
 each finished run is appended to output/bench/nav_runs.jsonl (--resume reuses those whose
 settings match).
 
-Output: output/bench/nav.json: per controller over all worlds ``nav_<figure>_<controller>``,
-per world under ``worlds``, the pick (``nav_pick``: no collision first, then the highest
-success rate, then the shortest mean time to goal), and a table printed; the default
-controller (config/navigator.yaml) is set from it by hand and README says why.
+Output: output/bench/nav.json: per controller over all worlds ``nav_<figure>_<controller>``
+(success_rate, time_s over its successful trips, time_common_s over the pairs every
+controller reached, path_ratio, speed_ratio, avg_speed_ratio = the whole trip's mean speed
+over the maximum, clearance_min_m, collisions, jerk, angular_jerk, stops, reversals,
+step_ms_p95, and the failures with their reasons), per world under ``worlds``, the pick
+(``nav_pick``: no collision first, then the highest success rate, then the shortest
+time_common_s), and the tables printed; the default controller (config/navigator.yaml) is set
+from it by hand and README says why.
 """
 import argparse
 import dataclasses
