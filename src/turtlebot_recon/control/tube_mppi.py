@@ -44,7 +44,8 @@ from .mppi import MppiController, MppiPlan, MppiSettings
 @dataclass(frozen=True)
 class TubeMppiSettings:
     # the tube: beyond it the nominal state restarts from the measured one
-    tube_radius_m: float = 0.2           # m, |x - z| in the plane; about one robot radius
+    tube_radius_m: float = 0.1           # m, |x - z| in the plane: less than the clearance a
+                                         # corridor leaves (the burger: ~0.14 m in 0.5 m)
     tube_yaw_rad: float = 0.8            # rad, |yaw - z_yaw|
     # iLQR's tracking cost (per model step); firm enough to hold seed 000's noisy unicycle in
     # the tube, soft enough not to chase every disturbance (bench-control's sweep: a 4x stiffer
