@@ -117,11 +117,12 @@ def drive(controller, x0, path_of, steps, noise, rng, occupancy, origin, crashed
     return dict(states=np.array(states), commands=np.array(commands))
 
 
-def jerk(commands: np.ndarray) -> np.ndarray:
-    """Mean |second difference| / dt^2 of each command column (v: m/s^3, w: rad/s^3)."""
+def jerk(commands: np.ndarray, dt: float = DT) -> np.ndarray:
+    """Mean |second difference| / dt^2 of each command column (v: m/s^3, w: rad/s^3), the
+    commands dt apart."""
     if len(commands) < 3:
         return np.zeros(2)
-    return np.abs(np.diff(commands, n=2, axis=0)).mean(axis=0) / DT ** 2
+    return np.abs(np.diff(commands, n=2, axis=0)).mean(axis=0) / dt ** 2
 
 
 def path_length(states: np.ndarray) -> float:

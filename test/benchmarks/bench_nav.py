@@ -55,6 +55,7 @@ import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_control import jerk  # noqa: E402
 from common import TOP, write  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
@@ -135,7 +136,7 @@ def write_pairs(seed: int) -> None:
 # ---------------------------------------------------------------------- one run
 def command_stats(commands: np.ndarray, dt: float) -> dict:
     v = commands[:, 0] if len(commands) else np.zeros(0)
-    jerk = (np.abs(np.diff(commands, n=2, axis=0)).mean(axis=0) / dt ** 2) if len(commands) >= 3 else np.zeros(2)
+    j = jerk(commands, dt)
     stops, moving = 0, False
     for x in np.abs(v):
         if x > MOVING_MPS:
@@ -145,7 +146,7 @@ def command_stats(commands: np.ndarray, dt: float) -> dict:
     if len(v) and abs(v[-1]) < STOP_MPS and stops:      # the arrival is not a stop
         stops -= 1
     signs = np.sign(v[np.abs(v) >= STOP_MPS])
-    return dict(jerk=float(jerk[0]), angular_jerk=float(jerk[1]), stops=int(stops),
+    return dict(jerk=float(j[0]), angular_jerk=float(j[1]), stops=int(stops),
                 reversals=int(np.count_nonzero(signs[1:] != signs[:-1])))
 
 

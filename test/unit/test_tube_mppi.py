@@ -2,7 +2,9 @@
 reaches a goal under seed 000's noise, resets the nominal when the robot leaves the tube, keeps
 the robot's limits and stops on bad input."""
 import math
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,18 +13,13 @@ from turtlebot_recon.control import BLOCKED, FOLLOWING, ROTATING, ControlInput
 from turtlebot_recon.control.footprint import BodyCheck
 from turtlebot_recon.control.mppi import MppiSettings
 from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettings
-from turtlebot_recon.robot import RobotSpec, load_robot
+from turtlebot_recon.robot import load_robot
 
-RES = 0.05
-DT = 0.1                                  # s, seed 000's step (bench-control's choice)
-# seed 000's idealised unicycle, as in test/benchmarks/bench_control.py, with fewer samples
-UNICYCLE = RobotSpec(name="unicycle", wheel_radius_m=0.033, wheel_separation_m=0.16,
-                     max_linear_mps=2.0, max_angular_radps=3.0, max_linear_accel_mps2=1e3,
-                     max_angular_accel_radps2=1e3, radius_m=0.1)
-UNICYCLE_MPPI = MppiSettings(batch_size=300, time_steps=30, model_dt_s=DT, control_rate_hz=1 / DT,
-                             min_linear_mps=-1.0, noise_std_v_mps=0.5, noise_std_w_radps=1.0,
-                             goal_region_m=3.0, rotate_threshold_rad=math.pi)
-# (seed 000's controllers never turn on the spot first: rotate_threshold_rad pi switches it off)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from bench_control import DT, EXPERIMENT_MPPI, RES, UNICYCLE  # noqa: E402
+
+# seed 000's idealised unicycle and MPPI settings, as bench-control's, with fewer samples
+UNICYCLE_MPPI = replace(EXPERIMENT_MPPI, batch_size=300)
 WIDE_TUBE = TubeMppiSettings(tube_radius_m=0.5, tube_yaw_rad=1.5)
 SMALL_MPPI = MppiSettings(batch_size=300)     # the waffle_pi's defaults, fewer samples
 
