@@ -199,6 +199,15 @@ class MppiPlan:
     collides: bool            # the chosen trajectory itself does (the distance field's test)
 
 
+
+def _seconds(now_s) -> Optional[float]:
+    """A control step's time as a finite float, or None."""
+    try:
+        now = float(now_s)
+    except (TypeError, ValueError):
+        return None
+    return now if math.isfinite(now) else None
+
 class MppiController:
     """MPPI behind the Controller contract (module docstring)."""
 
@@ -354,11 +363,8 @@ class MppiController:
 
     def _stood_still(self, still: bool, now_s) -> bool:
         """Whether the chosen trajectory has stood still for stall_time_s in a row."""
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            now = math.nan
-        if not still or not math.isfinite(now):
+        now = _seconds(now_s)
+        if not still or now is None:
             self._still_since = None
             return False
         if self._still_since is None or now < self._still_since:
@@ -371,11 +377,8 @@ class MppiController:
         navigator replans every few seconds, and progress along each new path started over
         (a robot hovering 0.85 m from its goal held there for minutes)."""
         cfg = self.settings
-        try:
-            now = float(now_s)
-        except (TypeError, ValueError):
-            return ""
-        if not math.isfinite(now):
+        now = _seconds(now_s)
+        if now is None:
             return ""
         x, y, yaw = pose
         m = self._mark
