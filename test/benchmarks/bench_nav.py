@@ -82,10 +82,6 @@ DRIVING_MPS = 0.02            # |v| at least this: translating (speed ratio)
 STOP_MPS, MOVING_MPS = 0.01, 0.05
 
 
-def world_occupancy(world) -> np.ndarray:
-    return np.where(world.free, 0, 100).astype(np.int8)
-
-
 def circumscribed_m(robot) -> float:
     if robot.is_round:
         return robot.radius_m
@@ -96,7 +92,7 @@ def circumscribed_m(robot) -> float:
 # ---------------------------------------------------------------------- the fixed pairs
 def make_pairs(world_name: str, robot_name: str, n: int, seed: int) -> list:
     world, robot = load_world(world_name), load_robot(robot_name)
-    occ = world_occupancy(world)
+    occ = world.occupancy()
     lattice = LatticeSettings()
     ok = np.argwhere(world.clearance() >= circumscribed_m(robot) + START_SPARE_M)
     centres = np.column_stack([world.origin[0] + (ok[:, 1] + 0.5) * world.resolution,
@@ -157,7 +153,7 @@ def run_one(task: dict) -> dict:
     slip = DEFAULT_SLIP if task["pose"] == "localization" else 0.0
     sim = Simulator(world, robot, SimSettings(world=task["world"], robot=task["robot"], rtf=0.0, camera_rate_hz=0.0,
                                               odom_slip_std_sqrt_m=slip, seed=task["index"]))
-    occ = world_occupancy(world)
+    occ = world.occupancy()
     settings = NavigationSettings(robot=task["robot"], controller=task["controller"])
     nav = Navigation(settings, robot)
     nav.update_map(occ, world.resolution, world.origin)

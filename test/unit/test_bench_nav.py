@@ -25,7 +25,7 @@ def test_each_world_has_30_pairs_whose_starts_fit_and_goals_are_far(world_name):
     pairs = entry["pairs"]
     assert len(pairs) >= 30
     world, robot = load_world(world_name), load_robot(entry["robot"])
-    occ = bench_nav.world_occupancy(world)
+    occ = world.occupancy()
     starts = np.array([p["start"] for p in pairs], float)
     # every start: the body clear of walls (the circumscribed disc's spare, any heading)
     clearance = _native.body_field_clearance(occ, world.resolution, world.origin, starts, max_m=1.0,

@@ -255,7 +255,7 @@ def test_perfect_map_covers_f_and_half_a_map_covers_half(room_world):
     f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
     tracker = CoverageTracker(world, f)
     assert tracker.cells == 4800 and tracker.area_m2 == pytest.approx(12.0)
-    occ = np.where(world.free, 0, 100).astype(np.int8)      # world grid, shifted origin
+    occ = world.occupancy()      # world grid, shifted origin
     origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
     assert tracker.update(0.0, occ, RES, origin) == 1.0
     # Free cells x < 2.1 (cols 2..41 of 84): 40 of the room's 80 columns: 2400 / 4800 = 0.5.
@@ -331,7 +331,7 @@ def test_time_to_thresholds(room_world):
     tracker = CoverageTracker(world, f)
     assert tracker.final is None and tracker.time_to(0.9) is None
     origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
-    occ = np.where(world.free, 0, 100).astype(np.int8)
+    occ = world.occupancy()
 
     def known(k):
         m = occ.copy()
@@ -371,7 +371,7 @@ def test_seen_counts_known_and_occupied_f_cells(room_world):
     # (the world grid, origin shifted by the start (1, 1.5)) knows all of F, none occupied.
     world = load_world(room_world)
     tracker = CoverageTracker(world, reachable_free_space(world, BURGER_RADIUS_M, 3.5))
-    occ = np.where(world.free, 0, 100).astype(np.int8)
+    occ = world.occupancy()
     origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
     assert tracker.seen(occ, RES, origin) == (1.0, 0.0)
     # Column 42 marked occupied (60 cells: seen, not free), column 43 unknown (60 cells):

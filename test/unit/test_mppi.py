@@ -383,7 +383,7 @@ def test_a_first_iteration_standing_still_is_not_blocked():
     from turtlebot_recon.sim import load_world
     world = load_world("house")
     nav = Navigation(NavigationSettings(controller="mppi"), WAFFLE)
-    nav.update_map(np.where(world.free, 0, 100).astype(np.int8), world.resolution, world.origin)
+    nav.update_map(world.occupancy(), world.resolution, world.origin)
     nav.set_goal(4.875, 1.275)
     commands = [nav.step(0.1 * k, (10.425, 8.225, 2.645), (0.0, 0.0)) for k in range(8)]
     assert nav.status == "active" and nav.last_output.status != BLOCKED, nav.last_output.detail

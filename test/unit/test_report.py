@@ -208,7 +208,7 @@ def run(room_world):
         log.goal(g)
     log.ate_sample((0.03, 0.04), (1.0, 1.5))
     log.ate_sample((1.0, 0.0), (2.0, 1.5))
-    occ = np.where(world.free, 0, 100).astype(np.int8)
+    occ = world.occupancy()
     origin = (world.origin[0] - START[0], world.origin[1] - START[1])
     half = occ.copy()
     half[:, 42:] = -1

@@ -112,7 +112,7 @@ class Oracle:
         self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
         self.solid = world.solid.astype(np.uint8)
         self.radius_cells = max(0.0, sensor_range_m - settings.range_margin_m) / self.res
-        occupancy = np.where(world.free, 0, 100).astype(np.int8)
+        occupancy = world.occupancy()
         # the navigator's graded costmap (253 where no heading of the footprint fits) for path
         # distances, and its lattice for where the robot can go
         lattice = lattice.with_robot(robot)

@@ -79,6 +79,10 @@ class World:
         r, c = self.cell(x, y)
         return inside(r, c, self.free.shape) and bool(self.free[r, c])
 
+    def occupancy(self) -> np.ndarray:
+        """The world as a map: int8, 0 where free, 100 where solid (no unknown cells)."""
+        return np.where(self.free, 0, 100).astype(np.int8)
+
     def clearance(self) -> np.ndarray:
         """Distance (m) from each free cell centre to the nearest solid cell's edge; 0 on solid."""
         padded = np.pad(self.free, 1, constant_values=False)   # outside the image is solid
