@@ -210,7 +210,7 @@ def run_one(task: dict) -> dict:
                    path_ratio=round(float(sim.distance_m) / max(task["plan_m"], 1e-6), 4),
                    speed_ratio=round(float(driving.mean()) / robot.max_linear_mps, 4) if len(driving) else 0.0,
                    clearance_min_m=round(float(clearance.min()), 4) if len(clearance) else None,
-                   collisions=int(sim.collisions), step_ms_mean=round(float(np.mean(step_ms)), 3),
+                   collisions=int(sim.collisions), takeovers=nav.takeovers, step_ms_mean=round(float(np.mean(step_ms)), 3),
                    step_ms_p95=round(float(np.percentile(step_ms, 95)), 3),
                    **command_stats(np.array(commands).reshape(-1, 2), dt))
         if loc is not None:
@@ -227,7 +227,7 @@ def run_one(task: dict) -> dict:
 
 # ---------------------------------------------------------------------- aggregation
 FIGURES = ("success_rate", "time_s", "time_common_s", "path_ratio", "speed_ratio", "avg_speed_ratio",
-           "clearance_min_m", "collisions", "jerk", "angular_jerk", "stops", "reversals", "step_ms_p95")
+           "clearance_min_m", "collisions", "jerk", "angular_jerk", "stops", "reversals", "takeovers", "step_ms_p95")
 
 
 def summarise(runs: list, common: set) -> dict:
@@ -250,6 +250,8 @@ def summarise(runs: list, common: set) -> dict:
                 clearance_min_m=round(min(clear), 4) if clear else None,
                 collisions=int(sum(r.get("collisions", 0) for r in runs)), jerk=mean("jerk", runs),
                 angular_jerk=mean("angular_jerk", runs), stops=mean("stops", runs), reversals=mean("reversals", runs),
+                # the pure pursuit's takeovers where the controller was blocked (navigator.takeover_m)
+                takeovers=round(float(np.mean([r.get("takeovers", 0) for r in runs])), 4) if runs else None,
                 step_ms_p95=mean("step_ms_p95", runs),
                 failures=[f"{r['world']}#{r['index']}: {r['status']} {r.get('reason', '')}"[:160]
                           for r in runs if not r["success"]])
@@ -337,13 +339,13 @@ def main() -> int:
     figures["pairs_per_world"] = args.pairs
     figures["wall_s"] = round(time.monotonic() - t0, 1)
     head = ("controller", "success", "time_s", "common_s", "path", "speed", "avg_spd", "clear_m", "coll", "jerk",
-            "stops", "rev", "p95_ms")
+            "stops", "rev", "takeov", "p95_ms")
     for w, d in [*per_world.items(), ("all worlds", per_controller)]:
         print(f"\n{w}\n{head[0]:<14}" + "".join(f"{h:>9}" for h in head[1:]))
         for c, s in d.items():
             vals = [s[k] for k in ("success_rate", "time_s", "time_common_s", "path_ratio", "speed_ratio",
                                    "avg_speed_ratio", "clearance_min_m", "collisions", "jerk", "stops", "reversals",
-                                   "step_ms_p95")]
+                                   "takeovers", "step_ms_p95")]
             print(f"{c:<14}" + "".join(f"{v:>9.3f}" if isinstance(v, float) else f"{v!s:>9}" for v in vals))
     write("nav", figures)
     return 0

@@ -107,6 +107,34 @@ def test_blocked_counts_once_per_map(nav, monkeypatch):
     assert nav.status == "failed" and "blocked 4 times in a row" in nav.reason and "unknown cell ahead" in nav.reason
 
 
+def test_a_blocked_controller_hands_the_plan_to_the_pure_pursuit_then_gets_it_back(monkeypatch):
+    """Where the selected controller finds no free way the pure pursuit drives the lattice plan
+    for takeover_m, then the controller (reset) is asked again; with takeover_m 0 its blocked
+    report stands and the goal fails."""
+    from turtlebot_recon.control import ControlOutput
+    robot = load_robot("turtlebot3_burger")
+    asked, resets = [], []
+    for takeover_m, reached in ((0.5, True), (0.0, False)):
+        nav = Navigation(NavigationSettings(controller="dwa", takeover_m=takeover_m), robot)
+        nav.update_map(room(), RES, (0.0, 0.0))
+        asked.clear(), resets.clear()
+        monkeypatch.setattr(nav.controller, "compute", lambda inp: asked.append(inp.pose) or
+                            ControlOutput(0.0, 0.0, "blocked", detail="samples collide"))
+        monkeypatch.setattr(nav.controller, "reset", lambda: resets.append(1))
+        nav.set_goal(3.5, 1.0)
+        x, y, _ = drive(nav, (0.8, 1.0, 0.0), 60.0)
+        if reached:
+            assert nav.status == "succeeded", nav.reason
+            assert math.hypot(x - 3.5, y - 1.0) <= 0.1 + 1e-9
+            # 2.7 m: handed back after each 0.5 m, blocked again, taken over again
+            assert 5 <= nav.takeovers <= 6 and len(resets) >= nav.takeovers
+            starts = np.array([p[:2] for p in asked])
+            gaps = np.hypot(*np.diff(starts, axis=0).T)
+            assert (gaps[gaps > 0.01] >= 0.5 - 0.03).all()      # asked again only 0.5 m on
+        else:
+            assert nav.status == "failed" and "samples collide" in nav.reason and nav.takeovers == 0
+
+
 def test_blocked_on_a_map_that_never_changes_fails_after_the_replan_periods(nav, monkeypatch):
     """A latched map (map_server's, mode:=localization's) never comes again: a blocked
     controller counts once per replan_period_s (2 s) there, and the goal fails after the
@@ -388,7 +416,7 @@ def test_each_controller_drives_the_navigator_to_a_goal(controller):
     # The same plan for every controller (controller:=NAME); the waffle_pi from the west room,
     # facing away, to the east room through the 0.45 m gap its box fits (0.072 m to spare).
     occ = two_rooms(9)
-    nav = Navigation(NavigationSettings(controller=controller), WAFFLE)
+    nav = Navigation(NavigationSettings(controller=controller, takeover_m=0.0), WAFFLE)  # on its own
     assert type(nav.controller).__name__ == {"pure_pursuit": "PurePursuit", "dwa": "DwaController",
                                              "pd": "PdController"}[controller]
     nav.update_map(occ, RES, (0.0, 0.0))

@@ -24,8 +24,8 @@ import numpy as np
 
 from .. import _native, geometry
 from ..config import positive, require
-from ..control import (CONTROLLERS, DEFAULT_CONTROLLER, BodyCheck, ControlInput, DwaSettings,
-                       FollowerSettings, MppiSettings, PdSettings, TubeMppiSettings, make_controller)
+from ..control import (BLOCKED, CONTROLLERS, DEFAULT_CONTROLLER, NO_PATH, BodyCheck, ControlInput,
+                       DwaSettings, FollowerSettings, MppiSettings, PdSettings, TubeMppiSettings, make_controller)
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
@@ -45,6 +45,9 @@ class NavigationSettings:
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
     controller: str = DEFAULT_CONTROLLER  # which drives: a name of control.CONTROLLERS
+    takeover_m: float = 0.5              # where the controller finds no free way (blocked), the
+                                         # pure pursuit drives the plan this far (m), then hands
+                                         # back; 0: never (the blocked report stands)
     lattice: LatticeSettings = field(default_factory=LatticeSettings)
     # One block per controller (the launch files load config/<name>.yaml into ~<name>); the
     # pure pursuit's is ``follower``, whose collision_margin_m, xy_goal_tolerance_m and rotate
@@ -57,6 +60,7 @@ class NavigationSettings:
 
     def validate(self, src: str) -> None:
         positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
+        require(self.takeover_m >= 0.0, src, "takeover_m", "must be >= 0")
         require(self.max_blocked_replans >= 1, src, "max_blocked_replans", "must be >= 1")
         require(self.controller in CONTROLLERS, src, "controller",
                 f"unknown controller '{self.controller}'; choose one of {', '.join(CONTROLLERS)}")
@@ -119,6 +123,15 @@ class Navigation:
                              footprint_offset_x_m=0.0)
         self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
         self.controller = make_controller(settings.controller, settings.controller_settings(), robot)
+        # The lattice plan's own follower, for where a sampling controller finds no free way:
+        # the plan's poses fit the body by construction, and the pure pursuit follows them
+        # exactly (stopping on tight corners to turn in place), where the weighted mean of
+        # samples drawn round a wall's end may not (Nav2 answers the same with recoveries).
+        self.takeover = None if settings.controller == "pure_pursuit" or settings.takeover_m <= 0 \
+            else make_controller("pure_pursuit", settings.follower, robot)
+        self._taken_at: Optional[np.ndarray] = None   # (x, y) where the takeover began
+        self.takeovers = 0                             # how many this navigator has had
+        self.takeover_detail = ""                      # why the last one (the blocked detail)
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
         self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
@@ -149,6 +162,7 @@ class Navigation:
         self.status, self.reason = "active", ""
         self._need_plan, self._blocked, self._blocked_map, self._blocked_at = True, 0, None, -math.inf
         self.controller.reset()
+        self._taken_at = None
 
     def fail(self, reason: str) -> None:
         self._finish("failed", reason)
@@ -187,9 +201,10 @@ class Navigation:
             if self.arc is not None:
                 return self._escape(pose)
         m = self.map
-        out = self.controller.compute(ControlInput(
+        inp = ControlInput(
             now_s=now_s, pose=pose, velocity=velocity, path=self.path_xy, goal_yaw=self.goal_yaw,
-            occupancy=m.occupancy, costmap=m.costmap, resolution=m.resolution, origin=m.origin))
+            occupancy=m.occupancy, costmap=m.costmap, resolution=m.resolution, origin=m.origin)
+        out = self._drive(inp)
         self.last_output = out
         if out.status == "arrived":
             if self._cusp:                       # near where the plan backs: its manoeuvre
@@ -209,6 +224,32 @@ class Navigation:
             return 0.0, 0.0
         self._blocked, self._blocked_map = 0, None
         return out.linear_mps, out.angular_radps
+
+    def _drive(self, inp: ControlInput):
+        """The selected controller's output, or the takeover's: the pure pursuit drives from
+        where the controller reported blocked until the robot is takeover_m from there; where
+        one of the two is blocked the other, reset, is asked (the blocked report stands when
+        both are)."""
+        if self._taken_at is not None and math.hypot(
+                inp.pose[0] - self._taken_at[0], inp.pose[1] - self._taken_at[1]) >= self.s.takeover_m:
+            self._taken_at = None
+            self.controller.reset()
+        first, other = (self.takeover, self.controller) if self._taken_at is not None \
+            else (self.controller, self.takeover)
+        out = first.compute(inp)
+        if out.status != BLOCKED or other is None:
+            return out
+        other.reset()
+        alt = other.compute(inp)
+        if alt.status in (BLOCKED, NO_PATH):
+            return out
+        if other is self.takeover:
+            self._taken_at = np.array(inp.pose[:2], dtype=float)
+            self.takeovers += 1
+            self.takeover_detail = out.detail
+        else:
+            self._taken_at = None
+        return alt
 
     def _hold(self, now_s: float, what: str, where: str, detail: str = "") -> None:
         """Stand still and plan again: a try counts once per new map (a replan on the same
@@ -525,5 +566,6 @@ class Navigation:
 
     def _finish(self, status: str, reason: str) -> bool:
         self.status, self.reason = status, reason
+        self._taken_at = None
         self._clear_path()
         return False
