@@ -233,6 +233,48 @@ def test_the_map_is_built_once_per_occupancy_array():
     assert len(calls) == 2
 
 
+def test_the_rolling_window_gives_the_whole_maps_answer(monkeypatch):
+    """The distance field covers a window round the robot (rebuilt as it moves on): the same
+    commands, step by step, as with the whole map's field, on the house's map while the robot
+    drives down its hallway past door frames (the window rebuilt on the way)."""
+    import turtlebot_recon.control.mppi as mppi_module
+    from turtlebot_recon.sim import load_world
+    world = load_world("house")
+    occ = world.occupancy()
+    path = np.array([(1.45, 5.45), (4.2, 5.45)])
+
+    class Spy:
+        def __init__(self, inner, shapes):
+            self.inner, self.shapes = inner, shapes
+
+        def __getattr__(self, name):
+            return getattr(self.inner, name)
+
+        def set_map(self, occupancy, *args, **kwargs):
+            self.shapes.append(occupancy.shape)
+            return self.inner.set_map(occupancy, *args, **kwargs)
+
+    def run(slack):
+        monkeypatch.setattr(mppi_module, "WINDOW_SLACK_M", slack)
+        ctrl, shapes, pose, commands = MppiController(SETTINGS, WAFFLE), [], (1.45, 5.45, 0.0), [(0.0, 0.0)]
+        ctrl._opt = Spy(ctrl._opt, shapes)
+        for k in range(60):
+            c = ctrl.compute(ControlInput(now_s=0.1 * k, pose=pose, velocity=commands[-1], path=path,
+                                          goal_yaw=None, occupancy=occ, costmap=np.zeros(occ.shape, np.uint8),
+                                          resolution=world.resolution, origin=world.origin))
+            commands.append((c.linear_mps, c.angular_radps))
+            pose = (pose[0] + 0.1 * c.linear_mps * math.cos(pose[2]),
+                    pose[1] + 0.1 * c.linear_mps * math.sin(pose[2]), pose[2] + 0.1 * c.angular_radps)
+        return np.array(commands), shapes, pose
+
+    windowed, shapes, end = run(mppi_module.WINDOW_SLACK_M)
+    whole, whole_shapes, _ = run(1e3)
+    assert end[0] - 1.45 > 1.0                                  # it drove on
+    assert len(shapes) >= 2 and all(r * c < occ.size / 10 for r, c in shapes)
+    assert whole_shapes == [occ.shape]
+    np.testing.assert_array_equal(windowed, whole)
+
+
 # ---------------------------------------------------------------- obstacles
 
 def test_an_obstacle_ahead_bends_the_chosen_trajectory_away():

@@ -18,7 +18,11 @@ One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
               rotation shim: sampled rollouts rarely hold a turn long enough to face about,
               and would back up along the path instead).
 4. MPPI       one iteration (optimizer.hpp) on the dense path from the progress point; the
-              distance field is rebuilt only for a new occupancy array.
+              distance field covers a rolling window round the robot (Nav2's local costmap:
+              the rollouts' reach + the body + the repulsion band + WINDOW_SLACK_M a side,
+              exact for every clearance the critics look at), rebuilt for a new occupancy
+              array or once the robot is WINDOW_SLACK_M from the window's centre (an office
+              map's whole field took 20 ms, the window's well under 1 ms).
 5. checks     every rollout collides; the chosen trajectory's first ``check_horizon_s``, every
               ``collision_margin_m``, fails the exact body check (BodyCheck.stays_clear); the
               robot has neither moved ``stall_distance_m`` nor turned ``stall_turn_rad`` in
@@ -48,8 +52,8 @@ API (also for Tube MPPI, control/tube_mppi.py)
         ``velocity`` (v m/s, w rad/s) the state's current speeds (the acceleration limits
         start from them; for a nominal state: the nominal's last control); ``path`` float
         (n >= 2, 2) waypoints (its last point is the goal); ``goal_yaw`` rad or None;
-        ``occupancy`` int8 grid (the distance field is rebuilt only when another array object
-        is passed); ``resolution`` m/cell; ``origin`` (x, y) m; ``period_s``: time since the
+        ``occupancy`` int8 grid (the distance field of a window round ``state`` is rebuilt
+        when another array object is passed or ``state`` leaves the window's middle); ``resolution`` m/cell; ``origin`` (x, y) m; ``period_s``: time since the
         previous call (the warm start shifts by round(period_s / model_dt_s) steps; None: one
         control period, 1 / ``control_rate_hz``). Warm-started from the previous call.
     ``last_rollouts(n=50) -> np.ndarray``  float (n, T + 1, 3) poses of a sample of the last
@@ -93,6 +97,10 @@ from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, Con
                PeriodClock)
 from .follower import _clean_path, _Grid, _Track
 from .footprint import BodyCheck
+
+
+WINDOW_SLACK_M = 0.5   # m: the robot may move this far from the distance field's window centre
+                       # before the window is rebuilt round it
 
 
 @dataclass(frozen=True)
@@ -221,7 +229,8 @@ class MppiController:
             max_linear_accel_mps2=robot.max_linear_accel_mps2,
             max_angular_accel_radps2=robot.max_angular_accel_radps2,
             seed=settings.seed if seed is None else int(seed), **footprint_args(robot))
-        self._map_key = None            # (the occupancy array object, resolution, origin)
+        self._map_key = None            # (the occupancy array object, resolution, origin,
+                                        # the window's centre (x, y))
         self.trajectory = np.zeros((0, 3))   # the last chosen trajectory (rviz)
         self._clock = PeriodClock(1.0 / settings.control_rate_hz)   # the period from the steps' times
         self.reset()
@@ -347,7 +356,7 @@ class MppiController:
     def _iterate(self, pose, velocity, goal_yaw, occupancy, resolution, origin,
                  period_s) -> MppiPlan:
         cfg = self.settings
-        self._set_map(occupancy, resolution, origin)
+        self._set_map(occupancy, resolution, origin, pose[:2])
         shift = max(0, int(round(period_s / cfg.model_dt_s)))
         gy = float(goal_yaw) if goal_yaw is not None and math.isfinite(goal_yaw) else None
         goal = self._track.goal
@@ -391,13 +400,29 @@ class MppiController:
                     f"{now - m[0]:.1f} s, {self._track.length - self._progress_m:.2f} m of path left")
         return ""
 
-    def _set_map(self, occupancy, resolution: float, origin: tuple) -> None:
-        """The distance field, rebuilt only for another occupancy array (or resolution, origin)."""
+    def _set_map(self, occupancy, resolution: float, origin: tuple, centre) -> None:
+        """The distance field of the window round ``centre`` (x, y), rebuilt for another
+        occupancy array (or resolution, origin) or once ``centre`` is WINDOW_SLACK_M from the
+        window's. Every pose a rollout from within WINDOW_SLACK_M of the centre reaches, with
+        its body and the repulsion band round it, lies inside the window, so the clearances
+        the critics use are the whole map's."""
         key = self._map_key
-        if key is None or key[0] is not occupancy or key[1] != resolution or key[2] != origin:
-            self._opt.set_map(np.asarray(occupancy, dtype=np.int8), resolution, origin,
-                              occupied_threshold=self.body.occupied_threshold)
-            self._map_key = (occupancy, resolution, origin)   # holds the array: ids stay unique
+        if key is not None and key[0] is occupancy and key[1] == resolution and key[2] == origin \
+                and math.hypot(centre[0] - key[3][0], centre[1] - key[3][1]) < WINDOW_SLACK_M:
+            return
+        occ = np.asarray(occupancy, dtype=np.int8)
+        cfg = self.settings
+        half = int(math.ceil((self._opt.reach_m + self.robot.radius_m
+                              + max(cfg.obstacle_band_m, cfg.collision_margin_m) + WINDOW_SLACK_M)
+                             / resolution)) + 1
+        rows, cols = occ.shape
+        r = min(max(int(math.floor((centre[1] - origin[1]) / resolution)), 0), rows - 1)
+        c = min(max(int(math.floor((centre[0] - origin[0]) / resolution)), 0), cols - 1)
+        r0, r1, c0, c1 = max(r - half, 0), min(r + half + 1, rows), max(c - half, 0), min(c + half + 1, cols)
+        self._opt.set_map(np.ascontiguousarray(occ[r0:r1, c0:c1]), resolution,
+                          (origin[0] + c0 * resolution, origin[1] + r0 * resolution),
+                          occupied_threshold=self.body.occupied_threshold)
+        self._map_key = (occupancy, resolution, origin, (float(centre[0]), float(centre[1])))
 
     def _follow(self, path) -> bool:
         """Track ``path`` (a new one restarts progress); False if it has < 2 usable points."""
