@@ -58,6 +58,7 @@ def start_navigator(launch, controller):
         params[own] = load_yaml(CONFIG / f"{own}.yaml")
     params["robot"] = rospy.get_param("~robot")
     params["controller"] = controller
+    params["takeover_m"] = 0.0           # each controller on its own: no pure pursuit takeover
     rospy.set_param(f"/{name}", params)
     node = roslaunch.core.Node("turtlebot_recon", "navigator", name=name, namespace="/",
                                remap_args=[("move_base", f"/{name}/move_base"),

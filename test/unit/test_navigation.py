@@ -13,6 +13,10 @@ from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
 from turtlebot_recon.robot import load_robot
 
 RES = 0.05
+# The navigator's own rules (plans, replans, manoeuvres), driven by the lattice plan's exact
+# follower; the default controller and the others drive it in the tests at the end of this
+# file, in test_mppi / test_tube_mppi and in the rostests.
+PURSUIT = NavigationSettings(controller="pure_pursuit")
 
 
 def room(width_cells=80, height_cells=60):
@@ -38,7 +42,7 @@ def drive(nav, pose, seconds, dt=0.1):
 
 @pytest.fixture
 def nav():
-    n = Navigation(NavigationSettings(), load_robot("turtlebot3_burger"))
+    n = Navigation(PURSUIT, load_robot("turtlebot3_burger"))
     n.update_map(room(), RES, (0.0, 0.0))
     return n
 
@@ -155,7 +159,7 @@ def test_a_goal_sent_before_the_map_covers_the_robot_waits_for_the_next_maps():
     """At startup a goal may come before the mapper has inserted a scan: the robot's own cell is
     unknown. The navigator holds (no command) and plans on the next map that covers the robot;
     it fails with a reason only after max_blocked_replans (3) maps more without one."""
-    nav = Navigation(NavigationSettings(), load_robot("turtlebot3_burger"))
+    nav = Navigation(PURSUIT, load_robot("turtlebot3_burger"))
     blank = np.full((60, 80), -1, np.int8)
     nav.update_map(blank, RES, (0.0, 0.0))
     nav.set_goal(3.0, 2.0)
@@ -182,7 +186,7 @@ def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():
     # changes this test: the lattice's graded cost there is 78, not the disc band's 221.)
     occ = room()
     occ[28:32, 38:42] = 100
-    nav = Navigation(NavigationSettings(), load_robot("turtlebot3_waffle_pi"))
+    nav = Navigation(PURSUIT, load_robot("turtlebot3_waffle_pi"))
     nav.update_map(occ, RES, (0.0, 0.0))
     pose = (2.101, 1.903, -0.115)
     assert nav.map.costmap[int(pose[1] / RES), int(pose[0] / RES)] == 78
@@ -255,7 +259,7 @@ def test_waffle_drives_through_a_045_gap_the_disc_planner_closes():
     with pytest.raises(PlanningError, match="unreachable"):
         plan(make_costmap(occ, RES, CostmapSettings.for_robot(WAFFLE)), (30, 10), (30, 70),
              PlannerSettings())
-    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav = Navigation(PURSUIT, WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(3.5, 1.5)
     poses, _ = drive_robot(nav, WAFFLE, occ, (0.8, 1.2, 2.5), 60.0)
@@ -275,7 +279,7 @@ def test_drives_round_the_corner_of_corridors_narrower_than_its_turning_disc():
     occ[10:19, 2:41] = 0            # east corridor: x in [0.1, 2.05), y in [0.5, 0.95)
     occ[10:75, 32:41] = 0           # north corridor: x in [1.6, 2.05), y in [0.5, 3.75)
     occ[6:22, 28:44] = 0            # the corner room: x in [1.4, 2.2), y in [0.3, 1.1)
-    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav = Navigation(PURSUIT, WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(1.825, 3.4)
     poses, commands = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
@@ -313,7 +317,7 @@ def beside_east_wall(centre_m):
 def drive_west(occ, start):
     """Navigate the waffle_pi from ``start`` to (0.5, 1.5): it arrives, and its body never comes
     within 5 mm of a wall. (poses, commands) as drive_robot."""
-    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav = Navigation(PURSUIT, WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(0.5, 1.5)
     poses, commands = drive_robot(nav, WAFFLE, occ, start, 90.0)
@@ -344,7 +348,7 @@ def test_a_plan_that_backs_into_place_is_followed_to_its_cusp_then_backed():
     occ = room()
     occ[:, 38:] = 100
     occ[26:35, 38:60] = 0
-    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav = Navigation(PURSUIT, WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(2.6, 1.525, math.pi)
     poses, commands = drive_robot(nav, WAFFLE, occ, (0.6, 1.525, 0.0), 120.0)
@@ -364,7 +368,7 @@ def test_backs_out_of_a_dead_end_it_cannot_turn_in():
     occ = room()
     occ[:, 38:] = 100
     occ[26:35, 38:60] = 0                     # y in [1.30, 1.75), x in [1.9, 3.0)
-    nav = Navigation(NavigationSettings(), WAFFLE)
+    nav = Navigation(PURSUIT, WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(1.0, 1.0)
     poses, commands = drive_robot(nav, WAFFLE, occ, (2.6, 1.525, 0.0), 90.0)
@@ -411,14 +415,15 @@ def test_a_wedged_robot_drives_an_escape_arc_then_to_the_goal():
 
 # ---------------------------------------------------------------- every controller
 
-@pytest.mark.parametrize("controller", ["pure_pursuit", "dwa", "pd"])
+@pytest.mark.parametrize("controller", ["pure_pursuit", "dwa", "pd", "mppi", "tube_mppi"])
 def test_each_controller_drives_the_navigator_to_a_goal(controller):
     # The same plan for every controller (controller:=NAME); the waffle_pi from the west room,
     # facing away, to the east room through the 0.45 m gap its box fits (0.072 m to spare).
     occ = two_rooms(9)
     nav = Navigation(NavigationSettings(controller=controller, takeover_m=0.0), WAFFLE)  # on its own
     assert type(nav.controller).__name__ == {"pure_pursuit": "PurePursuit", "dwa": "DwaController",
-                                             "pd": "PdController"}[controller]
+                                             "pd": "PdController", "mppi": "MppiController",
+                                             "tube_mppi": "TubeMppiController"}[controller]
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(3.5, 1.5)
     poses, commands = drive_robot(nav, WAFFLE, occ, (0.8, 1.2, 2.5), 90.0)

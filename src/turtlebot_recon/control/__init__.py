@@ -125,7 +125,7 @@ CONTROLLERS = {
     "mppi": (MppiSettings, MppiController),
     "tube_mppi": (TubeMppiSettings, TubeMppiController),
 }
-DEFAULT_CONTROLLER = "pure_pursuit"
+DEFAULT_CONTROLLER = "pure_pursuit"   # not yet bench-nav's pick, tube_mppi: README, "Limitations"
 
 
 def make_controller(name: str, settings, robot) -> Controller:
