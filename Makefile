@@ -47,7 +47,8 @@ help:
 	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
 	@echo "                 JOBS=cores/2 ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
-	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead)"
+	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead,"
+	@echo "                 LAUNCH_ARGS='controller:=tube_mppi slam:=true' more explore_sim.launch arguments for every run)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -137,7 +138,7 @@ bench-explore: build
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
 	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
-	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP))
+	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP)) $(if $(LAUNCH_ARGS),--launch-args "$(LAUNCH_ARGS)")
 
 slam-log: build
 	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }
