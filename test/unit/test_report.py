@@ -206,8 +206,8 @@ def run(room_world):
     assert log.collision_count(1, 14.0) is None
     for g in ((1.0, 0.0), (1.0, 0.0), (1.0, 1.0)):
         log.goal(g)
-    log.ate_sample((0.03, 0.04), (1.0, 1.5))
-    log.ate_sample((1.0, 0.0), (2.0, 1.5))
+    log.ate_sample((0.03, 0.04), (1.0, 1.5), t_s=10.0, estimate_yaw=0.1)
+    log.ate_sample((1.0, 0.0), (2.0, 1.5), t_s=12.0)
     occ = world.occupancy()
     origin = (world.origin[0] - START[0], world.origin[1] - START[1])
     half = occ.copy()
@@ -301,11 +301,13 @@ def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypat
         "coverage.csv": ("sim_time_s,coverage", (2, 2)),
         "path.csv": ("sim_time_s,x_m,y_m", (3, 3)),
         "ground_truth.tum": (5, 4),                  # every truth sample, not one per path_step_m
+        "estimate.tum": (2, 4),                      # the live estimate at each ATE sample
         "coverage.png": (450, 800, 3),
         "map.png": (*map_figure_size_px(final.occupancy.shape)[::-1], 3),
         "report.md": len(markdown(report)),
     }
-    assert sorted(os.listdir(out)) == sorted(RUN_FILES)
+    assert sorted(os.listdir(out)) == sorted((*RUN_FILES, "estimate.tum"))
+    np.testing.assert_allclose(read_tum(out / "estimate.tum"), [[10.0, 0.03, 0.04, 0.1], [12.0, 1.0, 0.0, 0.0]], atol=1e-6)
     assert json.loads(json_path.read_text()) == full_report(report)
     np.testing.assert_allclose(np.loadtxt(out / "path.csv", delimiter=",", skiprows=1), log.path_in_map(), atol=1e-3)
     # No final map and no coverage sample: no map.png, no coverage.png; report.json still last.
@@ -433,7 +435,7 @@ def test_write_run_draws_the_worlds_tags_and_the_confirmed_ones(run, tmp_path, m
     # No tag tracker (tags None): no tags on the map, the world's neither.
     write_run(tmp_path / "no_tags", report, coverage, log, final, world=world)
     assert calls[-1]["tags"] is None and calls[-1]["true_tags"] is None
-    assert sorted(os.listdir(tmp_path / "no_tags")) == sorted(RUN_FILES)
+    assert sorted(os.listdir(tmp_path / "no_tags")) == sorted((*RUN_FILES, "estimate.tum"))
 
 
 def test_tag_search_s_counts_from_the_first_tags_phase(run, tmp_path):

@@ -141,11 +141,12 @@ def test_sensor_and_clock_schedules(room_world, make_sim):
 
 def test_odometry_heading_follows_the_gyro_as_the_turtlebots_drivers_publish_it(room_world, make_sim):
     """With slip, odom_heading gyro (the default) keeps odometry's heading on the gyro's (a few
-    mrad after turning back and forth), while the wheels' distance still drifts; wheel-only
-    heading wanders by centiradians over the same turns."""
+    mrad after turning back and forth: a perfect gyro's noise), while the wheels' distance still
+    drifts; wheel-only heading wanders by centiradians over the same turns."""
     errors = {}
     for heading in ("gyro", "wheels"):
-        sim = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.05, odom_heading=heading, seed=3)
+        sim = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.05, odom_heading=heading, seed=3,
+                       gyro_scale_error=0.0, gyro_bias_radps=0.0)
         worst = 0.0
         for k in range(1200):                        # 12 s: turn left and right in place, 2 s each
             sim.set_command(0.0, 1.5 if (k // 200) % 2 == 0 else -1.5)
@@ -154,3 +155,19 @@ def test_odometry_heading_follows_the_gyro_as_the_turtlebots_drivers_publish_it(
         errors[heading] = worst
     assert errors["gyro"] < 0.005, errors
     assert errors["wheels"] > 4 * errors["gyro"], errors
+
+
+def test_the_gyros_scale_error_and_bias_turn_into_heading_drift(room_world, make_sim):
+    """Odometry's heading from the gyro carries the gyro's own errors: after turning 6 rad one
+    way in place the heading is off by the scale error's share of the turn plus the bias's."""
+    sim = make_sim(room_world, "turtlebot3_burger", odom_slip_std_sqrt_m=0.01, seed=3,
+                   gyro_scale_error=0.02, gyro_bias_radps=0.001)
+    turned = 0.0
+    for _ in range(400):                                   # 4 s at 1.5 rad/s
+        sim.set_command(0.0, 1.5)
+        yaw0 = sim.pose[2]
+        sim.step()
+        turned += wrap_angle(sim.pose[2] - yaw0)
+    assert turned > 5.0
+    error = wrap_angle(sim.odom.yaw - wrap_angle(sim.pose[2] - sim.world.start[2]))
+    assert abs(error - (0.02 * turned + 0.001 * 4.0)) < 0.01, (error, turned)

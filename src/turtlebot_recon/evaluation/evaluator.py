@@ -82,6 +82,7 @@ class RunLog:
         self.distance_m = 0.0                  # along every ground-truth sample, not only path's
         self.last_xy: Optional[tuple] = None   # the latest true position (world, m)
         self.ate_pairs: list = []              # (estimate x, y, true x, y), map frame, per ATE sample
+        self.estimates: list = []              # (sim time s, x, y, yaw): the live estimate at each ATE sample
         self.ate_odom_sq_m2: list = []         # the same for the raw odometry (odom frame), with SLAM
         self.collisions = 0                    # the simulator's contact count
         self.collisions_at: list = []          # (x m, y m in the map frame, t s on the report's clock)
@@ -135,10 +136,14 @@ class RunLog:
         self.phases[name] = float(t_s)
         return True
 
-    def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple, odometry_xy: Optional[tuple] = None) -> None:
+    def ate_sample(self, estimate_xy: tuple, true_world_xy: tuple, odometry_xy: Optional[tuple] = None,
+                   t_s: Optional[float] = None, estimate_yaw: float = 0.0) -> None:
         """One ATE sample: the estimated base position (map frame) vs the true one (world), m;
-        with SLAM also the odometry's (odom frame: the map frame without corrections)."""
+        with SLAM also the odometry's (odom frame: the map frame without corrections). With its
+        sim time ``t_s`` the estimate is kept for estimate.tum."""
         true_xy = world_to_map(np.array([true_world_xy], float), self.start)[0]
+        if t_s is not None:
+            self.estimates.append((float(t_s), float(estimate_xy[0]), float(estimate_xy[1]), float(estimate_yaw)))
         self.ate_pairs.append((float(estimate_xy[0]), float(estimate_xy[1]), float(true_xy[0]), float(true_xy[1])))
         if odometry_xy is not None:
             self.ate_odom_sq_m2.append(float((odometry_xy[0] - true_xy[0]) ** 2 + (odometry_xy[1] - true_xy[1]) ** 2))
@@ -254,7 +259,7 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
               world: Optional[World] = None) -> Path:
     """Write the run directory ``out_dir``: coverage.csv (sim_time_s, coverage), path.csv
     (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), ground_truth.tum (``RunLog.poses_in_map``),
-    coverage.png (if sampled), map.png (with a
+    estimate.tum (the live estimate at each ATE sample, map frame; when sampled), coverage.png (if sampled), map.png (with a
     final map), report.md and, last and atomically, report.json; return report.json's path.
     ``tags``: the confirmed tags as run_report's (None: no tag tracker, no tags on map.png);
     with them and ``world``, map.png shows the world's tags too, each estimate joined to its
@@ -271,6 +276,8 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
     np.savetxt(out / "path.csv", path, fmt=("%.2f", "%.3f", "%.3f"), delimiter=",",
                header="sim_time_s,x_m,y_m", comments="")
     write_tum(out / "ground_truth.tum", log.poses_in_map())
+    if log.estimates:
+        write_tum(out / "estimate.tum", np.asarray(log.estimates, float))
     if t.size:
         plot_coverage(out / "coverage.png", coverage, title=title(report))
     if final_map is not None:

@@ -58,10 +58,12 @@ class SimSettings:
                                          # once the last is this old (sim s); 0 = never
     cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
-    odom_heading: str = "wheels"         # with slip: odometry's heading from the wheels | gyro
-                                         # (what the TurtleBot3's OpenCR firmware and kobuki_node's
-                                         # default use_imu_heading publish: see README); slip 0:
+    odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
+                                         # TurtleBot3's OpenCR firmware and kobuki_node's default
+                                         # use_imu_heading publish: see README) | wheels; slip 0:
                                          # exact odometry
+    gyro_scale_error: float = 0.015      # the gyro's scale factor error (fraction of the true rate)
+    gyro_bias_radps: float = 0.00005     # its bias left after the drivers' start-up calibration
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
     ground_truth_rate_hz: float = 10.0
@@ -79,6 +81,7 @@ class SimSettings:
         require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
         require(self.odom_heading in ("gyro", "wheels"), src, "odom_heading",
                 f"must be gyro or wheels, got {self.odom_heading!r}")
+        require(abs(self.gyro_scale_error) < 0.5, src, "gyro_scale_error", "must be within +-0.5 (a fraction)")
         require(self.camera_rate_hz >= 0.0, src, "camera_rate_hz", "must be >= 0")
         require(self.camera_renderer in ("egl", "tiny"), src, "camera_renderer", "must be egl or tiny")
 
@@ -135,7 +138,7 @@ class Simulator:
         self.pose = np.array(world.start, dtype=float)   # true (x, y, yaw) in the world frame
         self.twist = (0.0, 0.0)                          # true body twist (m/s, rad/s)
         self.gyro_rate = 0.0                             # IMU yaw rate: mean over its period + noise (rad/s)
-        self._gyro_turn = 0.0                            # true turn since the last IMU sample (rad)
+        self._gyro_turn = 0.0                            # sensed turn since the last IMU sample (rad)
         self.gyro_yaw = 0.0                              # IMU orientation, integrated gyro
         self.collisions = 0
         self._contact = False
@@ -317,13 +320,15 @@ class Simulator:
         # decimation), plus noise: integrating its samples gives the heading change up to the
         # noise, as on a robot. The orientation integrates every step; with slip on, odometry
         # takes its heading from it, as the TurtleBots' drivers do (WheelOdometry).
-        gyro_turn = turn + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps) * self.dt
+        # The gyro's own errors (a scale factor, a residual bias) are the unit's, fixed in a run.
+        sensed = turn * (1.0 + self.settings.gyro_scale_error) + self.settings.gyro_bias_radps * self.dt
+        gyro_turn = sensed + self._rng_imu.normal(0.0, self.robot.gyro_noise_std_radps) * self.dt
         gyro_heading = self.settings.odom_slip_std_sqrt_m > 0 and self.settings.odom_heading == "gyro"
         self.odom.update(forward, turn, self.dt, gyro_turn if gyro_heading else None)
         self.twist = (forward / self.dt, turn / self.dt)
         self.distance_m += abs(forward)
         self.pose = moved
-        self._gyro_turn += turn
+        self._gyro_turn += sensed
         self.gyro_yaw = wrap_angle(self.gyro_yaw + gyro_turn)
         self.steps += 1
         due = [name for name, period in self._periods.items() if self.steps % period == 0]

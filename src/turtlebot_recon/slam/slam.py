@@ -53,6 +53,7 @@ class SlamSettings:
     use_imu: bool = True                  # fuse the gyro's yaw rate into each step's heading
     gyro_noise_std_radps: float = 0.002   # per IMU sample (the robot YAML's figure)
     gyro_bias_std_radps: float = 0.001    # unmodelled bias: adds (bias * step duration)^2
+    gyro_scale_std: float = 0.02          # unmodelled scale factor error (fraction): adds (scale * turn)^2
     match_min_score: float = 0.5          # scan-match factors below this score are left out
     match_gate_chi2: float = 16.3         # ... and those this far (Mahalanobis^2 over both
                                           # covariances) from odometry's prediction: a corridor's
@@ -79,7 +80,7 @@ class SlamSettings:
                 "must be <= loop_radius_max_m")
         for key in ("match_min_score", "loop_min_score"):
             require(0.0 <= getattr(self, key) <= 1.0, src, key, "must be in [0, 1]")
-        require(self.gyro_noise_std_radps >= 0 and self.gyro_bias_std_radps >= 0, src,
+        require(self.gyro_noise_std_radps >= 0 and self.gyro_bias_std_radps >= 0 and self.gyro_scale_std >= 0, src,
                 "gyro_noise_std_radps", "gyro noise figures must be >= 0")
 
 
@@ -246,8 +247,10 @@ class Slam:
             return delta, cov        # a gap in the gyro's samples: wheel odometry alone
         span = stamp_s - t0
         period = covered / max(1, samples)
-        # white noise per sample over span / period samples, plus a bias held over the span
-        var_imu = self.s.gyro_noise_std_radps ** 2 * period * span + (self.s.gyro_bias_std_radps * span) ** 2
+        # white noise per sample over span / period samples, plus a bias held over the span and
+        # the scale factor's share of the turn
+        var_imu = (self.s.gyro_noise_std_radps ** 2 * period * span + (self.s.gyro_bias_std_radps * span) ** 2
+                   + (self.s.gyro_scale_std * yaw_imu) ** 2)
         var_odo = cov[2, 2]
         gain = var_odo / (var_odo + var_imu) if var_odo + var_imu > 0 else 0.0
         fused = delta.copy()
