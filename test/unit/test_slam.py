@@ -189,3 +189,19 @@ def test_tags_enter_the_graph_after_two_sightings_at_their_place():
     assert "finite" in slam.add_tag(0.65, "tag36h11:3", (float("nan"), 0.5), np.eye(2))
     assert "inconsistent" in slam.add_tag(0.65, "tag36h11:3", (4.0, -3.0), np.diag([1e-4, 1e-4]))
     np.testing.assert_allclose(slam.graph.landmarks()["tag36h11:3"], (1.8, 0.5), atol=0.02)
+
+
+def test_a_loop_closure_that_jumps_beyond_the_poses_uncertainty_is_refused(two_laps):
+    """A maze repeats every metre: the loop window also holds the match one corridor over, which
+    scores as well. The closure's correction must lie within the marginals of both poses (plus
+    the match's covariance): 2 cm passes, 1 m (the next corridor) does not."""
+    from types import SimpleNamespace
+    slam = two_laps[0]
+    key, j = len(slam.keyframes) - 1, 10
+    here = slam.estimates[key]
+    cov = np.diag([0.02, 0.02, 0.01]) ** 2
+    near = SimpleNamespace(pose=np.array([here[0] + 0.02, here[1], here[2]]), covariance=cov)
+    far = SimpleNamespace(pose=np.array([here[0] + 1.0, here[1], here[2]]), covariance=cov)
+    assert slam._loop_consistent(j, key, near)
+    assert not slam._loop_consistent(j, key, far)
+    assert slam.stats()["loop_accepted"] >= 1          # the true closures of the two laps passed it

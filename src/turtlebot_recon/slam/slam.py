@@ -15,8 +15,11 @@ a scan becomes a keyframe, tied to the one before it by two factors:
 
 Loop closures: past keyframes whose estimate lies within the current pose's uncertainty
 (3 sigma of its marginal, at least ``loop_radius_min_m``) are tried, nearest first; the scan is
-matched against a submap around the candidate with a wider window, accepted above a score, and
-added with a robust kernel (the graph's), so one wrong closure cannot wreck the map.
+matched against a submap around the candidate with a wider window, accepted above a score and
+when the correction it makes is within the two poses' uncertainty (``match_gate_chi2`` on the
+sum of their marginals and the match's covariance: in a maze whose corridors repeat every metre,
+the window also holds the match one corridor over, which scores as well), and added with a
+robust kernel (the graph's), so one wrong closure cannot wreck the map.
 
 The map frame is the odom frame as it was when the first scan came (the start pose):
 ``map_to_odom`` is the identity until the first correction.
@@ -125,7 +128,7 @@ class Slam:
         self.last_odom = None                   # (stamp, pose) of the last scan seen
         self.odom_jumped = False
         self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
-                           loop_accepted=0, odom_jumps=0, resets=0, imu_fused=0)
+                           loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0)
         self.update_ms: list[float] = []
         self.match_ms: list[float] = []
         self.events: list[str] = []             # one line per thing a caller should log once
@@ -344,6 +347,28 @@ class Slam:
             return False
         return d2 <= self.s.match_gate_chi2
 
+    def _loop_consistent(self, j: int, key: int, match) -> bool:
+        """Whether the correction a loop closure makes to the new keyframe's estimate lies within
+        match_gate_chi2 of the uncertainty of it and of the candidate ``j`` (their marginals
+        summed, the candidate's turned into the new keyframe's frame: conservative, as it leaves
+        out their correlation) plus the match's own. The new keyframe has no marginal before the
+        update: the one before it stands in."""
+        here = self.estimates[key]
+        try:
+            s_key = self.graph.marginal(key - 1)
+            s_j = self.graph.marginal(j)
+        except (RuntimeError, ValueError, np.linalg.LinAlgError):
+            return True     # no marginal yet: the score and the robust kernel decide
+        c, s = math.cos(self.estimates[j][2] - here[2]), math.sin(self.estimates[j][2] - here[2])
+        r = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        v = between(here, match.pose)
+        S = s_key + r @ s_j @ r.T + match.covariance
+        try:
+            d2 = float(v @ np.linalg.solve(S, v))
+        except np.linalg.LinAlgError:
+            return False
+        return d2 <= self.s.match_gate_chi2
+
     def _close_loop(self, key: int) -> None:
         first_candidate = key - self.s.loop_min_gap_keyframes
         if first_candidate <= 0:
@@ -370,6 +395,9 @@ class Slam:
             if match is None or match.degenerate or match.score < self.s.loop_min_score:
                 continue
             if math.hypot(*(match.pose[:2] - here[:2])) > radius:
+                continue
+            if not self._loop_consistent(j, key, match):
+                self.counts["loop_inconsistent"] += 1
                 continue
             self.graph.add_loop(j, key, between(self.estimates[j], match.pose), match.covariance)
             self.counts["loop_accepted"] += 1
