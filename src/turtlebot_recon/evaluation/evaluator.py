@@ -259,8 +259,8 @@ def write_run(out_dir: str | Path, report: dict, coverage: CoverageTracker, log:
               world: Optional[World] = None) -> Path:
     """Write the run directory ``out_dir``: coverage.csv (sim_time_s, coverage), path.csv
     (sim_time_s, x_m, y_m: ``RunLog.path_in_map``), ground_truth.tum (``RunLog.poses_in_map``),
-    estimate.tum (the live estimate at each ATE sample, map frame; when sampled), coverage.png (if sampled), map.png (with a
-    final map), report.md and, last and atomically, report.json; return report.json's path.
+    estimate.tum (the live estimate at each ATE sample, map frame; when sampled), coverage.png
+    (if sampled), map.png (with a final map), report.md and, last and atomically, report.json; return report.json's path.
     ``tags``: the confirmed tags as run_report's (None: no tag tracker, no tags on map.png);
     with them and ``world``, map.png shows the world's tags too, each estimate joined to its
     true tag or marked false (``report.plot_map``).

@@ -339,8 +339,11 @@ class Slam:
         """Whether the match agrees with odometry's prediction within match_gate_chi2 (both in
         the new keyframe's body frame; the step's covariance is in the previous keyframe's,
         turned by the step's small rotation: close enough for a gate)."""
-        v = between(predicted, match.pose)
-        S = step_cov + match.covariance
+        return self._within_gate(between(predicted, match.pose), step_cov + match.covariance)
+
+    def _within_gate(self, v: np.ndarray, S: np.ndarray) -> bool:
+        """Whether the pose difference ``v`` lies within match_gate_chi2 (Mahalanobis^2) under
+        the covariance ``S``; a singular ``S`` does not."""
         try:
             d2 = float(v @ np.linalg.solve(S, v))
         except np.linalg.LinAlgError:
@@ -359,15 +362,10 @@ class Slam:
             s_j = self.graph.marginal(j)
         except (RuntimeError, ValueError, np.linalg.LinAlgError):
             return True     # no marginal yet: the score and the robust kernel decide
-        c, s = math.cos(self.estimates[j][2] - here[2]), math.sin(self.estimates[j][2] - here[2])
+        turn = self.estimates[j][2] - here[2]
+        c, s = math.cos(turn), math.sin(turn)
         r = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        v = between(here, match.pose)
-        S = s_key + r @ s_j @ r.T + match.covariance
-        try:
-            d2 = float(v @ np.linalg.solve(S, v))
-        except np.linalg.LinAlgError:
-            return False
-        return d2 <= self.s.match_gate_chi2
+        return self._within_gate(between(here, match.pose), s_key + r @ s_j @ r.T + match.covariance)
 
     def _close_loop(self, key: int) -> None:
         first_candidate = key - self.s.loop_min_gap_keyframes
