@@ -144,7 +144,7 @@ class GyroScale:
         """One keyframe: the gyro's turn and the matched one (rad) with the variance of their
         difference apart from k (rad^2). Whether it was used."""
         r = gyro_turn - matched_turn
-        if (r - self.value * matched_turn) ** 2 > 9.0 * (var + matched_turn ** 2 / self.info):
+        if not var > 0.0 or (r - self.value * matched_turn) ** 2 > 9.0 * (var + matched_turn ** 2 / self.info):
             return False
         self.info += matched_turn ** 2 / var
         self.eta += matched_turn * r / var
