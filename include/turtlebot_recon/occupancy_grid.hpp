@@ -95,7 +95,8 @@ class OccupancyGrid {
 
   // Seed 001's bumper mark: `cells` cells set to the clamp maximum along a line tangent to
   // the body at the contact point (distance robot_radius_m + res/2 in direction
-  // yaw + bumper_angle_rad), centred on it, one cell apart along the line's main axis.
+  // yaw + bumper_angle_rad), centred on it, one cell apart along the line's main axis. The
+  // marks stay: later scans' beams pass over them (the obstacle is below the lidar's plane).
   void mark_bumper(double x, double y, double yaw, double bumper_angle_rad, double robot_radius_m,
                    int cells);
 
@@ -166,6 +167,9 @@ class OccupancyGrid {
   int row_offset_ = 0, col_offset_ = 0;  // global cell of local (0, 0)
   std::vector<float> logodds_;           // NaN = never observed
   std::vector<std::int32_t> visits_;
+  // 1 where a bumper press marked the cell: something below the lidar's plane. Its beams pass
+  // over such a cell without a miss, so the mark stays (the lidar cannot see what the bumper felt).
+  std::vector<std::uint8_t> bumped_;
   // Per cell, the stamp of the last scan that updated it (0: none since the last growth):
   // a cell whose stamp is the current scan's has had its one update of this scan.
   std::vector<std::uint32_t> scan_stamps_;

@@ -69,6 +69,7 @@ OccupancyGrid::OccupancyGrid(const GridSettings& s) : settings_(s) {
         "OccupancyGrid: width_m x height_m at this resolution is too many cells");
   logodds_.assign(static_cast<std::size_t>(rows_) * cols_, std::numeric_limits<float>::quiet_NaN());
   visits_.assign(logodds_.size(), 0);
+  bumped_.assign(logodds_.size(), 0);
   scan_stamps_.assign(logodds_.size(), 0);
 }
 
@@ -178,9 +179,11 @@ void OccupancyGrid::trace_misses(const Cell& from, double x0, double y0, const R
                                  std::uint32_t stamp) {
   float* const logodds = logodds_.data();
   std::uint32_t* const stamps = scan_stamps_.data();
+  const std::uint8_t* const bumped = bumped_.data();
   const auto start = static_cast<std::ptrdiff_t>(index(from));
   traverse_segment(start, x0, y0, ray.x, ray.y, ray.end.row - from.row, ray.end.col - from.col,
                    std::ptrdiff_t{cols_}, std::ptrdiff_t{1}, LineEnd::kExcluded, [&](std::ptrdiff_t i) {
+                   if (bumped[i]) return true;  // below the scan plane: the beam passes over it
                    if (!ray.hit && logodds[i] > 0.0f) return false;  // a clearing ray: see above
                    if (stamps[i] != stamp) {
                      stamps[i] = stamp;
@@ -219,7 +222,10 @@ void OccupancyGrid::mark_bumper(double x, double y, double yaw, double bumper_an
     marks.push_back(c);
   }
   grow_to_cover(box);
-  for (const Cell& c : marks) logodds_[index(c)] = l_max_;
+  for (const Cell& c : marks) {
+    logodds_[index(c)] = l_max_;
+    bumped_[index(c)] = 1;
+  }
 }
 
 bool OccupancyGrid::add_visit(double x, double y, double speed_mps, double min_speed_mps) {
@@ -262,6 +268,7 @@ void OccupancyGrid::clear() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::fill(logodds_.begin(), logodds_.end(), std::numeric_limits<float>::quiet_NaN());
   std::fill(visits_.begin(), visits_.end(), 0);
+  std::fill(bumped_.begin(), bumped_.end(), 0);
   has_last_visit_ = false;
 }
 
@@ -302,12 +309,14 @@ void OccupancyGrid::grow_to_cover(const Box& box) {
   std::vector<float> logodds(static_cast<std::size_t>(new_rows * new_cols),
                              std::numeric_limits<float>::quiet_NaN());
   std::vector<std::int32_t> visits(logodds.size(), 0);
+  std::vector<std::uint8_t> bumped(logodds.size(), 0);
   const std::int64_t shift_r = row_offset_ - new_row_offset, shift_c = col_offset_ - new_col_offset;
   for (int r = 0; r < rows_; ++r) {
     const std::size_t src = static_cast<std::size_t>(r) * cols_;
     const std::size_t dst = static_cast<std::size_t>((r + shift_r) * new_cols + shift_c);
     std::copy_n(logodds_.begin() + src, cols_, logodds.begin() + dst);
     std::copy_n(visits_.begin() + src, cols_, visits.begin() + dst);
+    std::copy_n(bumped_.begin() + src, cols_, bumped.begin() + dst);
   }
   // Stamps only matter within a scan, and no scan is in progress here (insert_scan grows
   // before it stamps): the new window starts with none. Allocated before anything is swapped
@@ -315,6 +324,7 @@ void OccupancyGrid::grow_to_cover(const Box& box) {
   std::vector<std::uint32_t> scan_stamps(logodds.size(), 0);
   logodds_.swap(logodds);
   visits_.swap(visits);
+  bumped_.swap(bumped);
   scan_stamps_.swap(scan_stamps);
   row_offset_ = static_cast<int>(new_row_offset);
   col_offset_ = static_cast<int>(new_col_offset);

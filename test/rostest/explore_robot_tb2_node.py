@@ -31,18 +31,20 @@ class KobukiBumperEvent(BumperEvent):
     _md5sum = "ffe360cd50f14f9251d9844083e72ac5"
 
 
-def occupied_near(m: OccupancyGrid, x: float, y: float, radius_m: float) -> int:
-    """Cells of ``m`` marked occupied (>= 65) within ``radius_m`` of (x, y)."""
-    info, n = m.info, 0
+def occupied_ring(m: OccupancyGrid, x: float, y: float, inner_m: float, outer_m: float) -> list:
+    """Bearings (rad, map frame) from (x, y) of the cells of ``m`` marked occupied (>= 65) at a
+    distance in [inner_m, outer_m]: the ring where a bumper press is marked."""
+    info, bearings = m.info, []
     res, ox, oy = info.resolution, info.origin.position.x, info.origin.position.y
-    reach = int(math.ceil(radius_m / res))
+    reach = int(math.ceil(outer_m / res))
     col0, row0 = int((x - ox) / res), int((y - oy) / res)
     for row in range(row0 - reach, row0 + reach + 1):
         for col in range(col0 - reach, col0 + reach + 1):
-            if 0 <= row < info.height and 0 <= col < info.width and \
-                    math.hypot(ox + (col + 0.5) * res - x, oy + (row + 0.5) * res - y) <= radius_m:
-                n += m.data[row * info.width + col] >= 65
-    return n
+            if 0 <= row < info.height and 0 <= col < info.width and m.data[row * info.width + col] >= 65:
+                dx, dy = ox + (col + 0.5) * res - x, oy + (row + 0.5) * res - y
+                if inner_m <= math.hypot(dx, dy) <= outer_m:
+                    bearings.append(math.atan2(dy, dx))
+    return bearings
 
 
 class ExploreRobotTB2(unittest.TestCase):
@@ -89,10 +91,12 @@ class ExploreRobotTB2(unittest.TestCase):
         x, y = t.transform.translation.x, t.transform.translation.y
         q = t.transform.rotation
         yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        reach = RADIUS_M + 0.025
-        cx, cy = x + reach * math.cos(yaw + RIGHT_BUMPER_RAD), y + reach * math.sin(yaw + RIGHT_BUMPER_RAD)
+        # The press is marked as 5 cells along the body's tangent at the right bumper, ~0.20-0.26 m
+        # from the centre. The robot may still be turning while the press travels to the mapper,
+        # so the whole ring around the base is counted, and the marks' mean bearing checked.
+        ring = (RADIUS_M - 0.04, RADIUS_M + 0.12)
         with self.lock:
-            before = occupied_near(self.maps[-1], cx, cy, 0.12)
+            before = occupied_ring(self.maps[-1], x, y, *ring)
         pressed_wall, pressed_sim = time.monotonic(), rospy.Time.now()
         pub.publish(KobukiBumperEvent(bumper=KobukiBumperEvent.RIGHT, state=KobukiBumperEvent.PRESSED))
         types = dict(rosgraph.Master("/explore_robot_tb2_test").getTopicTypes())
@@ -107,11 +111,21 @@ class ExploreRobotTB2(unittest.TestCase):
         self.wait(lambda: any(m.header.stamp > pressed_sim for m in self.maps), 10.0, "a /map after the press")
         with self.lock:
             after_map = next(m for m in self.maps if m.header.stamp > pressed_sim)
-        after = occupied_near(after_map, cx, cy, 0.12)
-        rospy.loginfo("explore_robot_tb2: occupied cells at the right bumper (%.2f, %.2f): %d before, %d after",
-                      cx, cy, before, after)
-        self.assertEqual(before, 0, "the robot stood clear of walls")
-        self.assertGreaterEqual(after, 3, "the mapper marks 5 cells along the pressed bumper")
+        after = occupied_ring(after_map, x, y, *ring)
+        bearing = math.atan2(sum(map(math.sin, after)), sum(map(math.cos, after))) - yaw if after else math.nan
+        off_rad = abs(math.remainder(bearing - RIGHT_BUMPER_RAD, math.tau))
+        rospy.loginfo("explore_robot_tb2: occupied cells around the base (%.2f, %.2f): %d before, %d after, "
+                      "at %.0f deg from the right bumper", x, y, len(before), len(after), math.degrees(off_rad))
+        self.assertEqual(before, [], "the robot stood clear of walls")
+        self.assertGreaterEqual(len(after), 4, "the mapper marks 5 cells along the pressed bumper")
+        self.assertLess(off_rad, math.radians(45), "the marks lie at the right bumper")
+        # The lidar's beams pass over the marks (what the bumper felt is below its plane): they
+        # are still there seconds of scans later.
+        later_sim = pressed_sim + rospy.Duration(4.0)
+        self.wait(lambda: any(m.header.stamp > later_sim for m in self.maps), 20.0, "a /map 4 s after the press")
+        with self.lock:
+            later = occupied_ring(next(m for m in self.maps if m.header.stamp > later_sim), x, y, *ring)
+        self.assertGreaterEqual(len(later), 4, "the bumper marks outlive the lidar's scans")
 
         # 3. The driven path: the reverse moved the base, in the map frame.
         self.wait(lambda: self.path is not None and len(self.path.poses) >= 2, 15.0, "/trajectory with 2 poses")

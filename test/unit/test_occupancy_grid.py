@@ -517,6 +517,31 @@ def test_bumper_cell_count_and_growth():
         grid.mark_bumper(0.0, 0.0, 0.0, 0.0, KOBUKI_R, cells=0)
 
 
+def test_bumper_marks_stay_under_the_lidars_beams():
+    """What the bumper felt is below the scan plane: beams pass over the marks without a miss
+    (otherwise ~8 scans would erase them and the robot would drive into it again), and a
+    no-return beam is not stopped by them. A clear() forgets them."""
+    grid = OccupancyGrid(0.05)
+    grid.mark_bumper(0.01, 0.01, 0.0, CENTRE, KOBUKI_R)
+    marks = marked_centres(grid)
+    wall = np.full(360, 2.0, np.float32)                      # a ring of walls 2 m out
+    for _ in range(30):
+        grid.insert_scan(0.01, 0.01, 0.0, wall, -math.pi, 2 * math.pi / 360, 0.12, 3.5)
+    occ = grid.occupancy()
+    assert all(occ[grid.cell(x, y)] == 97 for x, y in marks)
+    assert occ[grid.cell(0.5, 0.01)] < 50                     # beyond the marks: seen free
+    assert occ[grid.cell(0.1, 0.01)] < 50                     # before them too
+
+    no_return = np.full(360, np.inf, np.float32)              # clearing beams: through the marks
+    fresh = OccupancyGrid(0.05)
+    fresh.mark_bumper(0.01, 0.01, 0.0, CENTRE, KOBUKI_R)
+    fresh.insert_scan(0.01, 0.01, 0.0, no_return, -math.pi, 2 * math.pi / 360, 0.12, 3.5, no_return_clear_m=1.0)
+    assert fresh.occupancy()[fresh.cell(0.5, 0.01)] >= 0      # known beyond them
+    fresh.clear()
+    fresh.insert_scan(0.01, 0.01, 0.0, wall, -math.pi, 2 * math.pi / 360, 0.12, 3.5)
+    assert fresh.occupancy()[fresh.cell(0.225, 0.01)] < 50    # forgotten with the map
+
+
 # ----------------------------------------------------------------------------------------
 # Visits.
 
