@@ -131,6 +131,35 @@ def test_missing_files_and_non_bags(tmp_path):
         BagReader(tmp_path / "odom_only.bag")
 
 
+def test_bag_topics_recorded_seconds_apart_merge_in_stamp_order(tmp_path):
+    """rosbag record under load (or a simulation faster than real time) writes one topic's
+    messages seconds after another's: a lag is not a time jump, and nothing is lost. A looping
+    bag's jump, seen first on one topic, is one TimeJump; the other topics' messages stamped
+    before their own jump, recorded after it, are skipped."""
+    scans = [laser(t, [1.0, 2.0], odom=None, laser_pose=None) for t in np.arange(1.0, 7.01, 0.2)]
+    odoms = [OdomRecord(t, t, 0.0, 0.0, 0.1, 0.0) for t in np.arange(1.0, 7.01, 0.03)]
+    imus = [ImuRecord(t, 0.0) for t in np.arange(1.0, 7.01, 0.02)]
+    # recording order: the odometry 2 s behind the scans, the IMU 1.5 s behind
+    order = sorted([(r.stamp_s, r) for r in scans] + [(r.stamp_s + 2.0, r) for r in odoms] +
+                   [(r.stamp_s + 1.5, r) for r in imus], key=lambda p: p[0])
+    recs = [r for _, r in order]
+    # then the bag loops: the scans go back first, odometry still arriving from the first run
+    recs += [laser(t, [1.0, 2.0], odom=None, laser_pose=None) for t in (1.0, 1.2)]
+    recs += [OdomRecord(7.05, 0, 0, 0, 0, 0), OdomRecord(1.0, 0, 0, 0, 0, 0), OdomRecord(1.03, 0, 0, 0, 0, 0)]
+    write_rosbag(tmp_path / "lag.bag", recs)
+    reader = BagReader(tmp_path / "lag.bag")
+    back = list(reader)
+    jumps = [i for i, r in enumerate(back) if isinstance(r, TimeJump)]
+    assert len(jumps) == 1
+    first_run, second_run = back[:jumps[0]], back[jumps[0] + 1:]
+    assert [r.stamp_s for r in first_run] == sorted(r.stamp_s for r in first_run)
+    kinds = [type(r).__name__ for r in first_run]
+    assert (kinds.count("LaserRecord"), kinds.count("OdomRecord"), kinds.count("ImuRecord")) == \
+        (len(scans), len(odoms), len(imus))                      # nothing lost to the lag
+    assert [round(r.stamp_s, 2) for r in second_run] == [1.0, 1.0, 1.03, 1.2]
+    assert reader.stats.skipped == {"before the jump": 1}       # odometry 7.05, from the first run
+
+
 def test_bag_round_trip_reorder_late_and_time_jump(tmp_path):
     scan = [1.0, np.nan, 0.0, 2.5]
     recs = [laser(t, scan, odom=None, laser_pose=None) for t in (10.0, 10.2, 10.4)]
@@ -138,7 +167,8 @@ def test_bag_round_trip_reorder_late_and_time_jump(tmp_path):
     recs.sort(key=lambda r: r.stamp_s)
     recs.insert(4, OdomRecord(10.15, 1.0, 2.0, 3.0, 0.2, 0.1))   # written after 10.2 s: re-sorted
     recs += [laser(t, scan, odom=None, laser_pose=None) for t in np.arange(10.6, 12.05, 0.2)]
-    recs.append(OdomRecord(11.1, 0, 0, 0, 0, 0))                 # 0.9 s late: older than one already given
+    recs.append(OdomRecord(11.1, 0, 0, 0, 0, 0))                 # the odometry's queue lagged 0.9 s: kept
+    recs.append(OdomRecord(11.05, 0, 0, 0, 0, 0))                # older than its own topic's last: late
     recs += [laser(t, scan, odom=None, laser_pose=None) for t in (2.0, 2.2)]   # the bag looped
     write_rosbag(tmp_path / "a.bag", recs)
     reader = BagReader(tmp_path / "a.bag")
@@ -149,8 +179,8 @@ def test_bag_round_trip_reorder_late_and_time_jump(tmp_path):
     assert stamps[:jump] == sorted(stamps[:jump])
     assert stamps[:5] == [10.0, 10.05, 10.1, 10.15, 10.2]
     assert [r.stamp_s for r in back[jump + 1:]] == [2.0, pytest.approx(2.2)]
-    assert 11.1 not in [r.stamp_s for r in back if isinstance(r, OdomRecord)]
-    assert reader.stats.skipped == {"late": 1} and reader.stats.reordered == 1
+    assert [r.stamp_s for r in back if isinstance(r, OdomRecord)] == [10.1, 10.15, 11.1]
+    assert reader.stats.skipped == {"late": 1} and reader.stats.reordered == 2
     assert "time went back 1 time(s) (first from 12.000 s to 2.000 s)" in reader.summary()
     odom = [r for r in back if isinstance(r, OdomRecord)][0]
     assert (odom.x, odom.y, odom.v, odom.w) == (1.0, 2.0, 0.2, 0.1) and odom.yaw == pytest.approx(3.0)

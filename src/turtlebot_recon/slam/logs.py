@@ -382,18 +382,24 @@ def _rosbag():
 class BagReader:
     """Records of a rosbag in header-stamp order, with TimeJump where time went back.
 
-    Messages are read in the bag's (recording) order and re-sorted by header stamp within
-    ``reorder_window_s``; a stamp more than ``jump_back_s`` older than the newest seen is a
-    jump back (the buffer is flushed, a TimeJump yielded); a message older than one already
-    yielded but within ``jump_back_s`` is late and skipped. A zero header stamp takes the
-    bag's time. ``imu_topic`` / ``tags_topic`` may be None or absent from the bag."""
+    Messages are read in the bag's (recording) order and merged by header stamp. Each topic's
+    own stamps only go forward, but one topic can reach the recorder seconds after another
+    (rosbag record's per-topic queues under load, a simulation running faster than real time):
+    a message is given once every continuous topic (all but the tags) has passed its stamp, or
+    once it is ``max_lag_s`` older than the newest stamp (a topic that fell silent). A topic's
+    stamp more than ``jump_back_s`` older than its own previous one is a jump back (a looping
+    bag): the first topic to jump flushes the buffer and yields a TimeJump; the others' messages
+    from before their own jump are then skipped as "before the jump". A message older than its
+    topic's previous within ``jump_back_s``, or older than one already given, is late and
+    skipped. A zero header stamp takes the bag's time. ``imu_topic`` / ``tags_topic`` may be
+    None or absent from the bag."""
 
     EXPECTED = {"scan": "sensor_msgs/LaserScan", "odom": "nav_msgs/Odometry",
                 "imu": "sensor_msgs/Imu", "tags": "turtlebot_recon/TagDetectionArray"}
 
     def __init__(self, path: Union[str, Path], scan_topic: str = "/scan", odom_topic: str = "/odom",
                  imu_topic: Optional[str] = "/imu", tags_topic: Optional[str] = "/tags/detections",
-                 reorder_window_s: float = 0.5, jump_back_s: float = 1.0):
+                 max_lag_s: float = 5.0, jump_back_s: float = 1.0):
         self.path = Path(path)
         if not self.path.is_file():
             raise LogError(f"{self.path}: no such file")
@@ -413,7 +419,7 @@ class BagReader:
             if types[topic] != self.EXPECTED[kind]:
                 raise LogError(f"{self.path}: {topic} is {types[topic]}, expected {self.EXPECTED[kind]}")
             self.topics[topic] = kind
-        self.reorder_window_s, self.jump_back_s = reorder_window_s, jump_back_s
+        self.max_lag_s, self.jump_back_s = max_lag_s, jump_back_s
         self.stats = LogStats(self.path.name)
 
     def summary(self) -> str:
@@ -425,11 +431,15 @@ class BagReader:
         with rosbag.Bag(str(self.path)) as bag:
             stamped = (self._convert(topic, msg, t.to_sec())
                        for topic, msg, t in bag.read_messages(topics=list(self.topics)))
-            for rec in self._ordered(r for r in stamped if r is not None):
+            for rec in self._ordered((tr for tr in stamped if tr[1] is not None)):
                 self.stats.kept[type(rec).__name__] += 1
                 yield rec
 
-    def _convert(self, topic: str, msg, bag_s: float) -> Optional[Record]:
+    def _convert(self, topic: str, msg, bag_s: float):
+        """(topic, the message's record or None)."""
+        return topic, self._record(topic, msg, bag_s)
+
+    def _record(self, topic: str, msg, bag_s: float) -> Optional[Record]:
         kind = self.topics[topic]
         stamp = msg.header.stamp.to_sec()
         if stamp == 0.0:
@@ -456,27 +466,51 @@ class BagReader:
             return ImuRecord(stamp, w)
         return TagRecord(stamp, msg)
 
-    def _ordered(self, records: Iterable[Record]) -> Iterator[Record]:
+    def _ordered(self, records: Iterable[tuple]) -> Iterator[Record]:
+        """Merge (topic, record) pairs in recording order into stamp order (see the class)."""
         heap: list = []
         seq = itertools.count()
+        epoch = 0                    # time jumps so far
+        last: dict = {}              # topic -> (its epoch, its newest stamp)
         newest, last_out = -math.inf, -math.inf
-        for rec in records:
+
+        streams = [topic for topic, kind in self.topics.items() if kind != "tags"]
+
+        def watermark() -> float:
+            """The stamp every continuous topic has passed in this epoch (-inf while one has not
+            spoken in it yet)."""
+            return min(last[t][1] if t in last and last[t][0] == epoch else -math.inf for t in streams)
+
+        for topic, rec in records:
             s = rec.stamp_s
-            if s < newest - self.jump_back_s:
-                while heap:
-                    yield heapq.heappop(heap)[2]
-                jump = TimeJump(s, newest)
-                self.stats.jumps.append(jump)
-                yield jump
-                newest, last_out = s, -math.inf
-            elif s < last_out:
-                self.stats.skip("late", f"{type(rec).__name__} at {s:.3f} s",
-                                f"{last_out - s:.3f} s older than one already given")
+            topic_epoch, previous = last.get(topic, (epoch, -math.inf))
+            if s < previous - self.jump_back_s:          # this topic's time went back
+                if topic_epoch < epoch:                   # another topic's jump started the new run
+                    topic_epoch = epoch
+                else:
+                    while heap:
+                        yield heapq.heappop(heap)[2]
+                    jump = TimeJump(s, newest)
+                    self.stats.jumps.append(jump)
+                    yield jump
+                    epoch += 1
+                    topic_epoch = epoch
+                    newest, last_out = s, -math.inf
+                previous = -math.inf
+            elif topic_epoch < epoch:
+                self.stats.skip("before the jump", f"{type(rec).__name__} at {s:.3f} s",
+                                "recorded after the time jump, stamped before it")
                 continue
+            if s < previous or s < last_out:
+                self.stats.skip("late", f"{type(rec).__name__} at {s:.3f} s",
+                                f"{max(previous, last_out) - s:.3f} s older than one before it")
+                continue
+            last[topic] = (topic_epoch, s)
             self.stats.reordered += s < newest
             newest = max(newest, s)
             heapq.heappush(heap, (s, next(seq), rec))
-            while heap and heap[0][0] <= newest - self.reorder_window_s:
+            ready = max(watermark(), newest - self.max_lag_s)
+            while heap and heap[0][0] <= ready:
                 last_out = heap[0][0]
                 yield heapq.heappop(heap)[2]
         while heap:
