@@ -87,7 +87,8 @@ run: build
 	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), controller $(CONTROLLER), mission $(MISSION), slam $(SLAM), headless; output in $(OUTPUT)"
 	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
 	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) controller:=$(CONTROLLER) mission:=$(MISSION) slam:=$(SLAM) rtf:=$(RTF) seed:=$(SEED) \
-	  budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false
+	  budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false \
+	  $(if $(SAVED_MAP),saved_map:=$(abspath $(SAVED_MAP)))
 
 wander: build
 	@$(ENV) tools/launch --tag wander --done scripted_drive --report $(abspath $(OUTPUT))/report.json run_sim.launch \

@@ -112,6 +112,11 @@ class OccupancyGrid {
   // Every cell unknown, every visit count 0; size and origin stay.
   void clear();
 
+  // A prior map (a saved one): every cell's log-odds from `logodds` (rows x cols, row-major,
+  // the grid's own shape; NaN = unknown), clamped to [log-odds(p_min), log-odds(p_max)] so
+  // that scans can still change it. Throws std::invalid_argument on another shape.
+  void set_logodds(const float* logodds, int rows, int cols);
+
   // Calls fn(const GridView&) with the grid locked: copy what you need inside fn.
   template <class Fn>
   void read(Fn&& fn) const {

@@ -272,6 +272,16 @@ void OccupancyGrid::clear() {
   has_last_visit_ = false;
 }
 
+void OccupancyGrid::set_logodds(const float* logodds, int rows, int cols) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  check(rows == rows_ && cols == cols_, "set_logodds: a " + std::to_string(rows) + " x " + std::to_string(cols) +
+                                            " array for a " + std::to_string(rows_) + " x " +
+                                            std::to_string(cols_) + " grid");
+  std::transform(logodds, logodds + logodds_.size(), logodds_.begin(), [this](float l) {
+    return std::isnan(l) ? l : std::clamp(l, l_min_, l_max_);
+  });
+}
+
 // ---------------------------------------------------------------------------------------
 // Geometry and growth.
 
@@ -555,6 +565,14 @@ void register_mapping(py::module_& m) {
            }, py::arg("x"), py::arg("y"),
            "(row, col) of the cell holding (x, y); may lie outside the grid.")
       .def("clear", &OccupancyGrid::clear, "Every cell unknown, every visit count 0.")
+      .def("set_logodds",
+           [](OccupancyGrid& g, py::array_t<float, py::array::c_style | py::array::forcecast> l) {
+             if (l.ndim() != 2) throw std::invalid_argument("set_logodds: need a 2-D array");
+             g.set_logodds(l.data(), static_cast<int>(l.shape(0)), static_cast<int>(l.shape(1)));
+           },
+           py::arg("logodds"),
+           "A prior map: float32 (rows, cols) log-odds in the grid's shape, NaN = unknown; clamped\n"
+           "to the grid's p_min / p_max so that scans can still change it.")
       .def_property_readonly("resolution", &OccupancyGrid::resolution, "m per cell")
       .def_property_readonly("origin_x", &OccupancyGrid::origin_x, "m, x of the lower-left corner")
       .def_property_readonly("origin_y", &OccupancyGrid::origin_y, "m, y of the lower-left corner")

@@ -3,7 +3,9 @@
 the tags mission: every tag of the world confirmed within 0.10 m (tag_recall 1, the error
 keys), no false tag, the tag search begun (tag_search_s) and ended by the explorer (not the
 budget), no collision; tags.yaml and tags.csv, saved by the evaluator's call before
-report.json, reload with the tracker's loader and list exactly the world's tags."""
+report.json, reload with the tracker's loader and list exactly the world's tags. With
+``~max_mapping_s`` (explore_tags_saved_map.test: a map made before), the tag search must begin
+within that many sim seconds of the explorer's start."""
 import os
 import unittest
 
@@ -32,6 +34,10 @@ class ExploreTags(unittest.TestCase):
         self.assertIsNotNone(report["tag_search_s"], summary)
         self.assertNotIn("budget", report["finished_reason"], summary)
         self.assertEqual(report["collisions"], 0, summary)
+        if rospy.has_param("~max_mapping_s"):
+            self.assertGreaterEqual(report["coverage_final"], 0.99, summary)
+            self.assertLessEqual(report["sim_time_s"] - report["tag_search_s"], float(rospy.get_param("~max_mapping_s")),
+                                 summary)
         out = os.path.dirname(path)
         self.assertLessEqual(os.path.getmtime(os.path.join(out, "tags.yaml")), os.path.getmtime(path))
         with open(os.path.join(out, "tags.yaml")) as f:

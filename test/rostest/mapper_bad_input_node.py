@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
 """rostest node for mapper_bad_input.test (wall time, no simulator)."""
 import math
+import os
+import subprocess
+import sys
 import unittest
 
 import numpy as np
+import rospkg
 import rospy
 import rostest
 import tf2_ros
@@ -70,6 +74,15 @@ class MapperBadInput(unittest.TestCase):
         m = rospy.wait_for_message("/map", OccupancyGrid, timeout=5)   # still publishing
         data = np.array(m.data)
         self.assertGreater(np.count_nonzero((data >= 0) & (data <= 25)), 1000)   # free: pi m^2 ~ 1250 cells
+
+    def test_a_missing_initial_map_is_one_clear_error(self):
+        env = dict(os.environ, ROS_NAMESPACE="/bad_initial_map")
+        script = os.path.join(rospkg.RosPack().get_path("turtlebot_recon"), "scripts", "mapper")
+        proc = subprocess.run([sys.executable, script, "__name:=mapper_bad", "_initial_map:=/nonexistent/map.yaml"],
+                              env=env, timeout=60, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.assertNotEqual(proc.returncode, 0, proc.stdout)
+        self.assertIn("cannot load initial_map '/nonexistent/map.yaml'", proc.stdout)
+        self.assertNotIn("Traceback", proc.stdout)
 
 
 if __name__ == "__main__":

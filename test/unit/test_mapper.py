@@ -204,3 +204,32 @@ def test_redraw_from_corrected_keyframes_makes_a_drifted_map_precise(tmp_path):
     # every scan a keyframe at its true pose: exactly the reference's walls
     grid, _ = core.redraw(stamps, truth)
     assert occupied(grid) == expected
+
+
+def test_a_saved_map_is_the_start_and_scans_update_it(tmp_path):
+    """``prior`` (a saved map, mapper.yaml's initial_map): the grid starts as that map (its
+    cells, origin and size; unknown stays unknown) and later scans change it like any other
+    cells; a redraw (SLAM) starts from it again. Another resolution is refused by name."""
+    occ = np.full((40, 60), -1, np.int8)
+    occ[5:35, 5:55] = 0
+    occ[5, 5:55] = 100                                   # a wall along y = -1.0 + 5 cells
+    origin = (-1.5, -1.25)
+    core = Mapper(MapperSettings(map_frame="map"), robot_radius_m=0.105, prior=(occ, 0.05, origin))
+    g = core.grid
+    assert (g.rows, g.cols, g.origin_x, g.origin_y) == (40, 60, -1.5, -1.25)
+    start = g.occupancy()
+    assert (start[occ == -1] == -1).all()
+    assert (start[occ == 0] == 12).all() and (start[occ == 100] == 97).all()   # p_min, p_max
+    # a wall 1 m ahead of the sensor at (0, 0) that the saved map lacks: after a few scans it is in
+    ranges = np.full(5, 1.0, np.float32)
+    for k in range(4):
+        core.insert(scan(ranges, angle_min=-math.radians(2), t=1.0 + k), (0.0, 0.0, 0.0))
+    now = core.grid.occupancy()
+    assert now[core.grid.cell(1.02, 0.0)] >= 65 and start[g.cell(1.02, 0.0)] == 12
+    assert now[core.grid.cell(0.2, -0.98)] == 97        # the saved wall, untouched by these beams
+    grid, drawn = core.redraw([], [])
+    assert drawn == 0 and np.array_equal(grid.occupancy(), start)
+    with pytest.raises(ValueError, match="resolution 0.1 m differs from the mapper's grid.resolution 0.05 m"):
+        Mapper(MapperSettings(), robot_radius_m=0.105, prior=(occ, 0.1, origin))
+    with pytest.raises(ValueError, match="set_logodds: a 3 x 3 array for a 40 x 60 grid"):
+        g.set_logodds(np.zeros((3, 3), np.float32))

@@ -6,6 +6,7 @@ so one diagnostics line says what was ignored and why.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import Counter
 from dataclasses import dataclass, field
@@ -35,6 +36,8 @@ class MapperSettings:
     publish_rate_hz: float = 1.0         # /map and /visit_map
     tf_timeout_s: float = 0.2            # wait this long for the scan's transform
     map_file: str = ""                   # base path of the PGM/YAML pair ('' = ~/.ros/map)
+    initial_map: str = ""                # a saved map (map_server YAML) to start from, in map_frame
+                                         # ('' = none): a tag search on a map made before
     save_on_shutdown: bool = True
     # With SLAM (its keyframe poses on slam_path): the map is drawn again from the keyframes'
     # scans at their optimised poses once any of them has moved this far since the last drawing
@@ -62,13 +65,16 @@ class Scan:
 
 class Mapper:
     def __init__(self, settings: MapperSettings, robot_radius_m: float,
-                 body_disc: tuple | None = None):
+                 body_disc: tuple | None = None, prior: tuple | None = None):
+        """``prior``: (occupancy int8 -1/0..100, resolution m, (origin x, y)) of a saved map the
+        grid starts from (``load_map``'s tuple), at the grid's resolution; scans then update it."""
         self.settings = settings
+        self.prior = None if prior is None else self._prior_grid(settings.grid, *prior)
         self.robot_radius_m = robot_radius_m     # the bumpers' circle
         # (centre ahead of base_footprint m, radius m): a disc inside the body; default the
         # round body of robot_radius_m
         self.body_disc = (0.0, robot_radius_m) if body_disc is None else body_disc
-        self.grid = make_grid(settings.grid)
+        self.grid = self._new_grid()
         self.skipped = Counter()     # whole scans ignored, by reason
         self.beams = Counter()       # beams by class (valid, no_return, capped, too_close, nan)
         self.scans = 0
@@ -168,7 +174,7 @@ class Mapper:
         poses = np.asarray(base_poses, float).reshape(-1, 3)
         kf = sorted((self.history_index[k], i) for i, k in enumerate(keys) if k in self.history_index)
         n = len(self.history)
-        grid = make_grid(g)
+        grid = self._new_grid()
         if not kf:
             return grid, 0
         kf_stamp = np.array([self.history[h][0] for h, _ in kf])
@@ -198,6 +204,31 @@ class Mapper:
             grid.mark_bumper(pose[0], pose[1], pose[2], BUMPER_ANGLE_RAD[side], self.robot_radius_m, g.bumper_cells)
         self.drawn.update({keys[i]: tuple(poses[i]) for _, i in kf})
         return grid, n
+
+    @staticmethod
+    def _prior_grid(g: GridSettings, occupancy, resolution: float, origin) -> tuple:
+        """(grid settings covering the saved map, its cells' log-odds)."""
+        occ = np.asarray(occupancy)
+        if occ.ndim != 2 or occ.size == 0:
+            raise ValueError(f"initial map: need a non-empty 2-D grid, got shape {occ.shape}")
+        if not math.isclose(resolution, g.resolution, rel_tol=1e-6):
+            raise ValueError(f"initial map: resolution {resolution:g} m differs from the mapper's "
+                             f"grid.resolution {g.resolution:g} m")
+        p = np.clip(occ.astype(np.float32) / 100.0, 1e-3, 1.0 - 1e-3)
+        logodds = np.where(occ < 0, np.nan, np.log(p / (1.0 - p))).astype(np.float32)
+        rows, cols = occ.shape
+        settings = dataclasses.replace(g, origin_x=float(origin[0]), origin_y=float(origin[1]),
+                                       width_m=cols * resolution, height_m=rows * resolution)
+        return settings, logodds
+
+    def _new_grid(self):
+        """An empty grid, or one holding the prior map."""
+        if self.prior is None:
+            return make_grid(self.settings.grid)
+        settings, logodds = self.prior
+        grid = make_grid(settings)
+        grid.set_logodds(logodds)
+        return grid
 
     def swap(self, grid, drawn_scans: int) -> None:
         """Make ``grid`` (from ``redraw``) the live one; the scans inserted while it was drawn
