@@ -87,3 +87,12 @@ def load_map(path: str | Path) -> tuple:
     occ = np.flipud(occupancy_classes(pixels, meta, path)).copy()
     origin = meta.get("origin", [0.0, 0.0, 0.0])
     return occ, float(meta["resolution"]), (float(origin[0]), float(origin[1]))
+
+
+def load_map_as(path: str | Path, what: str) -> tuple:
+    """``load_map``, with every way the file can fail (missing, not YAML, no image, a bad key) as
+    one ValueError: "cannot load WHAT 'PATH': why" (a node's parameter, a command's argument)."""
+    try:
+        return load_map(path)
+    except (OSError, KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"cannot load {what} {str(path)!r}: {exc}") from None

@@ -429,17 +429,13 @@ class BagReader:
         self.stats = LogStats(self.path.name)
         rosbag = _rosbag()[0]
         with rosbag.Bag(str(self.path)) as bag:
-            stamped = (self._convert(topic, msg, t.to_sec())
+            stamped = ((topic, self._convert(topic, msg, t.to_sec()))
                        for topic, msg, t in bag.read_messages(topics=list(self.topics)))
-            for rec in self._ordered((tr for tr in stamped if tr[1] is not None)):
+            for rec in self._ordered((topic, r) for topic, r in stamped if r is not None):
                 self.stats.kept[type(rec).__name__] += 1
                 yield rec
 
-    def _convert(self, topic: str, msg, bag_s: float):
-        """(topic, the message's record or None)."""
-        return topic, self._record(topic, msg, bag_s)
-
-    def _record(self, topic: str, msg, bag_s: float) -> Optional[Record]:
+    def _convert(self, topic: str, msg, bag_s: float) -> Optional[Record]:
         kind = self.topics[topic]
         stamp = msg.header.stamp.to_sec()
         if stamp == 0.0:

@@ -22,7 +22,7 @@ import numpy as np
 from ..evaluation.trajectory_metrics import write_tum
 from ..geometry import between, compose, transform_points, wrap_angle
 from ..mapping.grid import GridSettings, make_grid
-from ..mapping.map_io import load_map, save_map
+from ..mapping.map_io import load_map_as, save_map
 from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump, read_log
 from .scan_matching import scan_points
 from .localization import LocalizationSettings, Localizer
@@ -169,10 +169,7 @@ def localize_log(path, map_file, output_dir, settings: LocalizationSettings = Lo
     odometry.tum into ``output_dir``. ``stats`` holds the localiser's counts."""
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    try:
-        occupancy, resolution, origin = load_map(map_file)
-    except (OSError, KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise ValueError(f"cannot load map {str(map_file)!r}: {exc}") from None
+    occupancy, resolution, origin = load_map_as(map_file, "map")
     loc = Localizer(settings, occupancy, resolution, origin, wheel_separation_m)
     loc.set_pose(initial_pose)
     reader = read_log(path)
