@@ -4,8 +4,13 @@
 //   x_{t+1} = x_t + dt (v cos yaw, v sin yaw, w).
 // Cost of a control sequence u_0..u_{T-1} from x_0, tracking the references xref_0..xref_T and
 // uref_0..uref_{T-1} (the nominal states and controls of MPPI):
-//   J = sum_{t<T} [ e_t' Q e_t + du_t' R du_t ] + e_T' Qf e_T,
-//   e_t = x_t - xref_t (yaw wrapped to (-pi, pi]),  du_t = u_t - uref_t.
+//   J = sum_{t<T} [ e_t' Q e_t + du_t' R du_t + c_t' S c_t ] + e_T' Qf e_T,
+//   e_t = x_t - xref_t (yaw wrapped to (-pi, pi]),  du_t = u_t - uref_t,
+//   c_t = u_t - u_{t-1}, the change of the command (u_{-1}: the command before, `u_prev`; without
+//   one the sum of c_t starts at t = 1).
+// The change couples neighbouring controls; the solver carries the previous control as two more
+// states, X = (x, y, yaw, p_v, p_w) with p_{t+1} = u_t (the usual augmentation), so the gains
+// are 2 x 5: u = u_t + K_t (x - x_t) + P_t (p - p_t). With S = 0, P_t = 0 and nothing changes.
 // Control bounds u_min <= u <= u_max are kept exactly: the backward pass solves each step's
 // two-control quadratic over the box (the control-limited DDP of Tassa, Mansard, Todorov 2014;
 // with two controls the box QP is solved exactly by its interior and edge candidates), and its
@@ -33,6 +38,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -43,11 +49,15 @@ namespace turtlebot_recon::control::ilqr {
 using State = Eigen::Vector3d;
 using Control = Eigen::Vector2d;
 using Gain = Eigen::Matrix<double, 2, 3>;
+using Aug = Eigen::Matrix<double, 5, 1>;          // (x, y, yaw, the previous v, w)
+using AugGain = Eigen::Matrix<double, 2, 5>;
+using AugMatrix = Eigen::Matrix<double, 5, 5>;
 
 struct Settings {
   Eigen::Matrix3d Q = Eigen::Vector3d(1.0, 1.0, 0.1).asDiagonal();    // per step, 1/m^2, 1/rad^2
   Eigen::Matrix2d R = Eigen::Vector2d(0.1, 0.01).asDiagonal();        // per step, s^2/m^2, s^2/rad^2
   Eigen::Matrix3d Qf = Eigen::Vector3d(10.0, 10.0, 1.0).asDiagonal(); // terminal
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();                        // per step, on u_t - u_{t-1}
   Control u_min{-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   Control u_max{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
   int max_iterations = 10;
@@ -63,7 +73,7 @@ struct Settings {
 struct Result {
   std::vector<State> states;         // T + 1
   std::vector<Control> controls;     // T
-  std::vector<Gain> gains;           // T, about `states` / `controls`
+  std::vector<Gain> gains;           // T, about `states` / `controls` (the state part: K_t)
   std::vector<double> cost_history;  // the initial cost, then one per accepted iteration
   int iterations = 0;                // iterations run (accepted or not)
   bool converged = false;            // stopped on `tolerance`
@@ -117,14 +127,16 @@ class Tracker {
   }
 
   // Track xref (T + 1 states) and uref (T controls) from x0, starting from u_init (T controls,
-  // clamped to the bounds).
+  // clamped to the bounds); u_prev: the command before u_0 (for S; none: no change cost at t = 0).
   Result solve(const State& x0, const std::vector<State>& xref,
-                   const std::vector<Control>& uref, const std::vector<Control>& u_init) {
+               const std::vector<Control>& uref, const std::vector<Control>& u_init,
+               const std::optional<Control>& u_prev = std::nullopt) {
     const size_t T = uref.size();
     if (xref.size() != T + 1 || u_init.size() != T || T == 0)
       throw std::invalid_argument("need T >= 1 controls, T + 1 reference states, T initial controls");
     xref_ = &xref;
     uref_ = &uref;
+    u_prev_ = u_prev;
     resize(T);
     Result r;
     r.controls.resize(T);
@@ -178,7 +190,8 @@ class Tracker {
     while (!backward_pass(r.states, r.controls, mu_k)) {
       if (!increase_mu(mu_k, delta_k)) break;
     }
-    r.gains = K_;
+    r.gains.resize(T);
+    for (size_t t = 0; t < T; ++t) r.gains[t] = K_[t].leftCols<3>();
     r.mu = mu;
     return r;
   }
@@ -190,15 +203,24 @@ class Tracker {
     for (size_t t = 0; t < T; ++t) {
       const State e = state_error(x[t], (*xref_)[t]);
       const Control du = u[t] - (*uref_)[t];
-      J += e.dot(s_.Q * e) + du.dot(s_.R * du);
+      const Control c = change(u, t);
+      J += e.dot(s_.Q * e) + du.dot(s_.R * du) + c.dot(s_.S * c);
     }
     const State e = state_error(x[T], (*xref_)[T]);
     return J + e.dot(s_.Qf * e);
   }
 
  private:
+  // c_t = u_t - u_{t-1} (zero at t = 0 without u_prev).
+  Control change(const std::vector<Control>& u, size_t t) const {
+    if (t > 0) return u[t] - u[t - 1];
+    return u_prev_ ? Control(u[0] - *u_prev_) : Control::Zero();
+  }
+  // Whether c_t is a cost term (S acts on it): every t but the first without u_prev.
+  bool has_change(size_t t) const { return t > 0 || u_prev_.has_value(); }
+
   void resize(size_t T) {
-    K_.assign(T, Gain::Zero());
+    K_.assign(T, AugGain::Zero());
     k_.assign(T, Control::Zero());
     x_new_.resize(T + 1);
     u_new_.resize(T);
@@ -245,28 +267,45 @@ class Tracker {
   // definite. dv1_, dv2_: the expected decrease's terms, sum k'Qu and sum k'Quu k.
   bool backward_pass(const std::vector<State>& x, const std::vector<Control>& u, double mu) {
     const size_t T = u.size();
+    // the augmented state X = (x, p): X_{t+1} = (f(x_t, u_t), u_t), so A5 = [A 0; 0 0] and
+    // B5 = [B; I]; the change cost c' S c with c = u - p adds -2 S c to Qp, 2 S c to Qu, 2 S to
+    // Qpp and Quu, and -2 S to Qup.
     const State eT = state_error(x[T], (*xref_)[T]);
-    Eigen::Vector3d Vx = 2.0 * s_.Qf * eT;
-    Eigen::Matrix3d Vxx = 2.0 * s_.Qf;
-    Eigen::Matrix3d A;
-    Eigen::Matrix<double, 3, 2> B;
+    Aug Vx = Aug::Zero();
+    AugMatrix Vxx = AugMatrix::Zero();
+    Vx.head<3>() = 2.0 * s_.Qf * eT;
+    Vxx.topLeftCorner<3, 3>() = 2.0 * s_.Qf;
+    Eigen::Matrix3d A3;
+    Eigen::Matrix<double, 3, 2> B3;
+    AugMatrix A = AugMatrix::Zero();
+    Eigen::Matrix<double, 5, 2> B = Eigen::Matrix<double, 5, 2>::Zero();
+    B.bottomRows<2>().setIdentity();
     dv1_ = dv2_ = 0.0;
     for (size_t t = T; t-- > 0;) {
-      unicycle_jacobians(x[t], u[t], dt_, A, B);
+      unicycle_jacobians(x[t], u[t], dt_, A3, B3);
+      A.topLeftCorner<3, 3>() = A3;
+      B.topRows<3>() = B3;
       const State e = state_error(x[t], (*xref_)[t]);
       const Control du = u[t] - (*uref_)[t];
-      const Eigen::Matrix3d Vreg = Vxx + mu * Eigen::Matrix3d::Identity();
-      const Eigen::Vector3d Qx = 2.0 * s_.Q * e + A.transpose() * Vx;
-      const Control Qu = 2.0 * s_.R * du + B.transpose() * Vx;
-      const Eigen::Matrix3d Qxx = 2.0 * s_.Q + A.transpose() * Vxx * A;
-      const Eigen::Matrix2d Quu = 2.0 * s_.R + B.transpose() * Vreg * B;
-      const Gain Qux = B.transpose() * Vreg * A;
+      const Eigen::Matrix2d S = has_change(t) ? s_.S : Eigen::Matrix2d::Zero();
+      const Control c = change(u, t);
+      const AugMatrix Vreg = Vxx + mu * AugMatrix::Identity();
+      Aug Qx = A.transpose() * Vx;
+      Qx.head<3>() += 2.0 * s_.Q * e;
+      Qx.tail<2>() -= 2.0 * S * c;
+      const Control Qu = 2.0 * s_.R * du + 2.0 * S * c + B.transpose() * Vx;
+      AugMatrix Qxx = A.transpose() * Vxx * A;
+      Qxx.topLeftCorner<3, 3>() += 2.0 * s_.Q;
+      Qxx.bottomRightCorner<2, 2>() += 2.0 * S;
+      const Eigen::Matrix2d Quu = 2.0 * (s_.R + S) + B.transpose() * Vreg * B;
+      AugGain Qux = B.transpose() * Vreg * A;
+      Qux.rightCols<2>() -= 2.0 * S;
       const Eigen::LLT<Eigen::Matrix2d> llt(Quu);
       if (llt.info() != Eigen::Success) return false;
       // k over the box of the control's room: u_min - u <= k <= u_max - u
       bool free[2];
       const Control k = box_qp(Quu, Qu, s_.u_min - u[t], s_.u_max - u[t], free);
-      Gain K = Gain::Zero();
+      AugGain K = AugGain::Zero();
       if (free[0] && free[1]) {
         K = -llt.solve(Qux);
       } else {
@@ -289,7 +328,10 @@ class Tracker {
                       double alpha) {
     x_new_[0] = x0;
     for (size_t t = 0; t < u.size(); ++t) {
-      u_new_[t] = clamp_control(u[t] + alpha * k_[t] + K_[t] * state_error(x_new_[t], x[t]), s_);
+      Aug dX;
+      dX.head<3>() = state_error(x_new_[t], x[t]);
+      dX.tail<2>() = t > 0 ? Control(u_new_[t - 1] - u[t - 1]) : Control::Zero();
+      u_new_[t] = clamp_control(u[t] + alpha * k_[t] + K_[t] * dX, s_);
       x_new_[t + 1] = unicycle_step(x_new_[t], u_new_[t], dt_);
     }
     return cost(x_new_, u_new_);
@@ -310,7 +352,8 @@ class Tracker {
   Settings s_;
   const std::vector<State>* xref_ = nullptr;
   const std::vector<Control>* uref_ = nullptr;
-  std::vector<Gain> K_;
+  std::optional<Control> u_prev_;
+  std::vector<AugGain> K_;
   std::vector<Control> k_;
   std::vector<State> x_new_;
   std::vector<Control> u_new_;

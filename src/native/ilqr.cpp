@@ -68,7 +68,8 @@ std::string repr(const il::Result& r) {
 il::Result py_ilqr_track(const F64Array& x0, const F64Array& x_ref, const F64Array& u_ref,
                          const std::optional<F64Array>& u_init, double dt,
                          const std::vector<double>& q, const std::vector<double>& r,
-                         const std::vector<double>& qf, const std::vector<double>& u_min,
+                         const std::vector<double>& qf, const std::vector<double>& r_change,
+                         const std::optional<F64Array>& u_prev, const std::vector<double>& u_min,
                          const std::vector<double>& u_max, int max_iterations, double tolerance,
                          double min_decrease_ratio, int line_search_steps, double mu_init,
                          double mu_min, double mu_max, double mu_factor) {
@@ -85,6 +86,13 @@ il::Result py_ilqr_track(const F64Array& x0, const F64Array& x_ref, const F64Arr
   s.Q = vector_of<3>(q, "q", true).asDiagonal();
   s.R = vector_of<2>(r, "r", true).asDiagonal();
   s.Qf = vector_of<3>(qf, "qf", true).asDiagonal();
+  s.S = vector_of<2>(r_change, "r_change", true).asDiagonal();
+  std::optional<il::Control> previous;
+  if (u_prev) {
+    if (u_prev->size() != 2) fail(kFn, "u_prev must be (v m/s, w rad/s)");
+    previous = il::Control(u_prev->data()[0], u_prev->data()[1]);
+    if (!previous->allFinite()) fail(kFn, "u_prev must be finite");
+  }
   s.u_min = vector_of<2>(u_min, "u_min", false);
   s.u_max = vector_of<2>(u_max, "u_max", false);
   s.max_iterations = max_iterations;
@@ -100,7 +108,7 @@ il::Result py_ilqr_track(const F64Array& x0, const F64Array& x_ref, const F64Arr
   try {
     py::gil_scoped_release release;
     il::Tracker tracker(dt, s);
-    return tracker.solve(start, xr, ur, ui);
+    return tracker.solve(start, xr, ur, ui, previous);
   } catch (const std::invalid_argument& e) {
     fail(kFn, e.what());
   }
@@ -143,13 +151,16 @@ void register_ilqr(py::module_& m) {
         py::arg("q") = std::vector<double>{1.0, 1.0, 0.1},
         py::arg("r") = std::vector<double>{0.1, 0.01},
         py::arg("qf") = std::vector<double>{10.0, 10.0, 1.0},
+        py::arg("r_change") = std::vector<double>{0.0, 0.0}, py::arg("u_prev") = py::none(),
         py::arg("u_min") = std::vector<double>{-inf, -inf},
         py::arg("u_max") = std::vector<double>{inf, inf}, py::arg("max_iterations") = 10,
         py::arg("tolerance") = 1e-4, py::arg("min_decrease_ratio") = 1e-4,
         py::arg("line_search_steps") = 8, py::arg("mu_init") = 0.0, py::arg("mu_min") = 1e-6,
         py::arg("mu_max") = 1e10, py::arg("mu_factor") = 1.6,
         "iLQR tracking for the unicycle x' = x + dt (v cos yaw, v sin yaw, w) (ilqr.hpp): from\n"
-        "x0, the T controls within [u_min, u_max] minimising sum e'Qe + du'R du + e_T'Qf e_T\n"
-        "against x_ref (T + 1, 3) and u_ref (T, 2), starting from u_init (default u_ref).\n"
-        "q, r, qf: the diagonals of Q, R, Qf (per step). Returns an IlqrResult.");
+        "x0, the T controls within [u_min, u_max] minimising\n"
+        "sum e'Qe + du'R du + c'S c + e_T'Qf e_T against x_ref (T + 1, 3) and u_ref (T, 2),\n"
+        "starting from u_init (default u_ref); c_t = u_t - u_{t-1}, u_{-1} = u_prev (none: no\n"
+        "change cost at t = 0). q, r, qf, r_change: the diagonals of Q, R, Qf, S (per step).\n"
+        "Returns an IlqrResult.");
 }

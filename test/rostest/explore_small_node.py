@@ -92,7 +92,7 @@ class ExploreSmall(unittest.TestCase):
         incomplete = incomplete_run_files(os.path.dirname(path))     # right away: no waiting
         summary = {k: report.get(k) for k in ("coverage_final", "coverage_seen_final", "F_marked_occupied",
                                               "time_to_90_s", "time_to_95_s", "distance_m", "collisions",
-                                              "sim_time_s", "wall_time_s", "finished_reason")}
+                                              "collisions_at", "sim_time_s", "wall_time_s", "finished_reason")}
         rospy.loginfo("explore_small: %s", summary)
         self.assertEqual(incomplete, [], "report.json appeared before the rest of the run directory")
         self.assertGreaterEqual(report["coverage_seen_final"], min_seen, summary)

@@ -24,7 +24,8 @@ class ExploreTags(unittest.TestCase):
         report = wait_for_report(path, float(rospy.get_param("~wait_wall_s")))
         self.assertIsNotNone(report, f"no report.json at {path} from this run")
         keys = ("tags_placed", "tags_confirmed", "tag_recall", "tag_error_median_m", "tag_error_max_m",
-                "false_tags", "tag_search_s", "coverage_final", "collisions", "sim_time_s", "finished_reason")
+                "false_tags", "tag_search_s", "coverage_final", "collisions", "collisions_at", "sim_time_s",
+                "finished_reason")
         summary = {k: report.get(k) for k in keys}
         rospy.loginfo("explore_tags: %s", summary)
         self.assertEqual(report["tags_placed"], 3, summary)

@@ -73,7 +73,7 @@ class ExploreTrap(unittest.TestCase):
         report = wait_for_report(rospy.get_param("~report"), 30.0)
         self.assertIsNotNone(report, "no report.json from this run")
         summary = {k: report.get(k) for k in ("coverage_final", "distance_m", "collisions",
-                                              "sim_time_s", "finished_reason")}
+                                              "collisions_at", "sim_time_s", "finished_reason")}
         rospy.loginfo("explore_trap: door closed for goal %s; %s", self.closed_for, summary)
         self.assertEqual(report["collisions"], 0, summary)
         self.assertGreater(self.farthest_m, 2.0, "the robot never left its corner")

@@ -104,6 +104,47 @@ def test_the_yaw_error_is_wrapped():
     assert abs(wrap(r.states[-1, 2] - np.pi)) < 0.02
 
 
+def full_cost(x0, u, x_ref, u_ref, q, r, qf, r_change, u_prev):
+    """ilqr.hpp's J written out: tracking, control, change of the command (from u_prev), terminal."""
+    x = rollout(x0, u)
+    e = x - x_ref
+    e[:, 2] = wrap(e[:, 2])
+    change = np.diff(np.vstack([u_prev, u]), axis=0)
+    return float((e[:-1] ** 2 @ np.asarray(q)).sum() + ((u - u_ref) ** 2 @ np.asarray(r)).sum()
+                 + (change ** 2 @ np.asarray(r_change)).sum() + e[-1] ** 2 @ np.asarray(qf))
+
+
+def test_the_change_cost_smooths_the_command_and_is_minimised():
+    """With a cost on u_t - u_{t-1} (from the command before, u_prev), the controls change less,
+    the first one stays nearer u_prev, and the result is a minimum of the whole cost: no small
+    step of any one control lowers it (the augmented backward pass is right)."""
+    x_ref, u_ref = arc_reference()
+    x0 = np.array([0.15, -0.1, 0.3])
+    u_prev = np.array([0.0, -1.0])                  # the robot was turning the other way
+    weights = dict(q=[5.0, 5.0, 1.0], r=[1.0, 0.1], qf=[50.0, 50.0, 10.0])
+    plain = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, **weights, **WIDE)
+    smooth = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, r_change=[20.0, 2.0],
+                                max_iterations=50, **weights, **WIDE)
+    change = lambda u: np.diff(np.vstack([u_prev, u]), axis=0)             # noqa: E731
+    assert ((change(smooth.controls) ** 2).sum(axis=0) < 0.5 * (change(plain.controls) ** 2).sum(axis=0)).all()
+    assert (np.abs(change(smooth.controls)).max(axis=0) < 0.5 * np.abs(change(plain.controls)).max(axis=0)).all()
+    assert np.linalg.norm(smooth.controls[0] - u_prev) < 0.7 * np.linalg.norm(plain.controls[0] - u_prev)
+    args = (x0, x_ref, u_ref, weights["q"], weights["r"], weights["qf"], [20.0, 2.0], u_prev)
+    best = full_cost(x0, smooth.controls, *args[1:])
+    assert best == pytest.approx(smooth.cost_history[-1], rel=1e-9)
+    for t in (0, 1, T // 2, T - 1):
+        for j in (0, 1):
+            for eps in (-1e-3, 1e-3):
+                u = smooth.controls.copy()
+                u[t, j] += eps
+                assert full_cost(x0, u, *args[1:]) > best - 1e-9
+    # without u_prev the first control has no change cost: it equals the plain solution's start
+    # more closely than with it
+    free = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, r_change=[20.0, 2.0], max_iterations=50,
+                              **weights, **WIDE)
+    assert np.linalg.norm(free.controls[0] - u_prev) > np.linalg.norm(smooth.controls[0] - u_prev)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(x0=[0.0, 0.0]), "x0 must be"),
     (dict(x0=[0.0, np.nan, 0.0]), "x0 must be finite"),
@@ -112,6 +153,8 @@ def test_the_yaw_error_is_wrapped():
     (dict(u_init=np.full((T, 2), np.nan)), "u_init must be finite"),
     (dict(dt=0.0), "dt must be > 0"),
     (dict(q=[1.0, -1.0, 0.0]), "q must be finite and >= 0"),
+    (dict(r_change=[1.0, np.inf]), "r_change must be finite and >= 0"),
+    (dict(u_prev=[0.0, np.nan]), "u_prev must be finite"),
     (dict(u_min=[1.0, -1.0], u_max=[0.0, 1.0]), "u_min must be <= u_max"),
 ])
 def test_bad_arguments_raise_one_line(kwargs, message):

@@ -10,9 +10,10 @@ One control step, ``TubeMppiController.compute(ControlInput) -> ControlOutput``:
 3. nominal    one MPPI iteration from z (not from x): nominal controls v_0..v_{T-1} and
               states z_0..z_T (``MppiController.optimize``'s path).
 4. ancillary  iLQR (``_native.ilqr_track``, include/turtlebot_recon/ilqr.hpp) from x tracking
-              (z_t, v_t) with the quadratic cost of ``q_*``, ``r_*``, ``qf_*`` within the robot's
-              velocity limits; its first control is the command, capped by the acceleration
-              limits from the measured velocity.
+              (z_t, v_t) with the quadratic cost of ``q_*``, ``r_*``, ``qf_*`` and ``r_change_*``
+              (on the change of the command from the one before) within the robot's velocity
+              limits; its first control is the command, capped by the acceleration limits from
+              the measured velocity.
 5. safety     the MPPI controller's checks on the ancillary's predicted trajectory from x: every
               rollout in collision, the exact body check of its first ``check_horizon_s``, a
               stall: zero command, "blocked", one line why.
@@ -22,9 +23,12 @@ One control step, ``TubeMppiController.compute(ControlInput) -> ControlOutput``:
 
 The MPPI parameters are config/mppi.yaml's (``MppiSettings``); this module's are
 config/tube_mppi.yaml's (``TubeMppiSettings``). iLQR's cost per model step:
-  (x_t - z_t)' diag(q_xy, q_xy, q_yaw) (x_t - z_t) + (u_t - v_t)' diag(r_linear, r_angular) (u_t - v_t),
+  (x_t - z_t)' diag(q_xy, q_xy, q_yaw) (x_t - z_t) + (u_t - v_t)' diag(r_linear, r_angular) (u_t - v_t)
+  + (u_t - u_{t-1})' diag(r_change_linear, r_change_angular) (u_t - u_{t-1}),
 with diag(qf_xy, qf_xy, qf_yaw) on the last state (the ancillary problem's terminal condition
-x_T = z_T, softened).
+x_T = z_T, softened); u_{-1} is the last command sent (the measured velocity after a reset).
+The change term is what keeps the feedback from answering each step's noise with a new command
+(seed 000's "jerky"): the command is a filtered one.
 """
 from __future__ import annotations
 
@@ -57,13 +61,16 @@ class TubeMppiSettings:
     r_angular_s2_per_rad2: float = 0.5   # s^2/rad^2, on w - w_nominal: (rad/s)^-2
     qf_xy_per_m2: float = 50.0           # 1/m^2, terminal: the ancillary problem's x_T = z_T,
     qf_yaw_per_rad2: float = 10.0        # 1/rad^2, terminal    softened
+    r_change_linear_s2_per_m2: float = 0.0     # s^2/m^2, on u_t - u_{t-1} (per model step)
+    r_change_angular_s2_per_rad2: float = 0.0  # s^2/rad^2, on w_t - w_{t-1}
     ilqr_max_iterations: int = 5         # iterations per control step (warm: a few suffice)
     mppi: MppiSettings = field(default_factory=MppiSettings)   # the nominal's MPPI (config/mppi.yaml)
 
     def validate(self, src: str) -> None:
         positive(src, self, "tube_radius_m", "tube_yaw_rad", "r_linear_s2_per_m2",
                  "r_angular_s2_per_rad2", "ilqr_max_iterations")
-        for key in ("q_xy_per_m2", "q_yaw_per_rad2", "qf_xy_per_m2", "qf_yaw_per_rad2"):
+        for key in ("q_xy_per_m2", "q_yaw_per_rad2", "qf_xy_per_m2", "qf_yaw_per_rad2",
+                    "r_change_linear_s2_per_m2", "r_change_angular_s2_per_rad2"):
             v = getattr(self, key)
             require(math.isfinite(v) and v >= 0, src, key, f"must be >= 0, got {v!r}")
         require(self.tube_yaw_rad <= math.pi, src, "tube_yaw_rad", "must be <= pi")
@@ -89,7 +96,14 @@ class TubeMppiController(MppiController):
     def _forget_nominal(self) -> None:
         self._z: Optional[np.ndarray] = None       # the nominal state (x, y, yaw)
         self._z_velocity = (0.0, 0.0)              # its speeds (the nominal's last control)
+        self._command: Optional[np.ndarray] = None  # the last command sent (v, w); None
+                                                    # after a reset: the measured velocity
         self.nominal_trajectory = np.zeros((0, 3))
+
+    def compute(self, inp):
+        out = super().compute(inp)
+        self._command = np.array([out.linear_mps, out.angular_radps])   # what was sent
+        return out
 
     # ------------------------------------------------------------------ the tube step
     def _iterate(self, pose, velocity, goal_yaw, occupancy, resolution, origin,
@@ -111,6 +125,8 @@ class TubeMppiController(MppiController):
             q=(tube.q_xy_per_m2, tube.q_xy_per_m2, tube.q_yaw_per_rad2),
             r=(tube.r_linear_s2_per_m2, tube.r_angular_s2_per_rad2),
             qf=(tube.qf_xy_per_m2, tube.qf_xy_per_m2, tube.qf_yaw_per_rad2),
+            r_change=(tube.r_change_linear_s2_per_m2, tube.r_change_angular_s2_per_rad2),
+            u_prev=self._command if self._command is not None else np.asarray(velocity, float),
             u_min=(cfg.min_linear_mps, -r.max_angular_radps),
             u_max=(r.max_linear_mps, r.max_angular_radps),
             max_iterations=tube.ilqr_max_iterations)
