@@ -27,7 +27,8 @@
 //   4. stop when the relative decrease falls below `tolerance`, at `max_iterations`, or when
 //      mu exceeds `mu_max` (no descent direction left).
 // The gains returned belong to the returned trajectory (one last backward pass about it), so
-// that u = u_t + K_t (x - x_t) is the local feedback policy around it.
+// that u = u_t + K_t (x - x_t) is the local feedback policy around it (their state part: with
+// S > 0 the policy also has P_t (p - p_t), not returned).
 //
 // Fixed-size Eigen types throughout: a 56-step problem takes a few microseconds per iteration.
 #pragma once
