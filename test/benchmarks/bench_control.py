@@ -75,7 +75,8 @@ EXPERIMENT_MPPI = MppiSettings(batch_size=1000, time_steps=30, model_dt_s=DT, co
 # (0.7 laps), these 5 (2.5 laps), at about 3x the command jerk of the defaults.
 EXPERIMENT_TUBE = TubeMppiSettings(tube_radius_m=0.5, tube_yaw_rad=1.5, q_xy_per_m2=20.0,
                                    r_linear_s2_per_m2=1.0, r_angular_s2_per_rad2=0.05,
-                                   qf_xy_per_m2=200.0, qf_yaw_per_rad2=10.0)
+                                   qf_xy_per_m2=200.0, qf_yaw_per_rad2=10.0,
+                                   r_change_linear_s2_per_m2=0.0, r_change_angular_s2_per_rad2=0.0)
 # "tube_mppi_smooth": the same with a cost on the change of the command (without it the
 # feedback answers each step's noise) and a softer heading (the noise turns the robot by up to
 # 0.3 rad a step): a quarter of the jerk on (a), but slower to turn on the racetrack

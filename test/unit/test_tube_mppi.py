@@ -76,7 +76,7 @@ def test_the_change_cost_filters_the_command():
         return np.abs(np.diff(sent, n=2, axis=0)).mean(axis=0), np.hypot(*(x[:2] - goal))
 
     stiff = replace(WIDE_TUBE, q_xy_per_m2=20.0, r_linear_s2_per_m2=1.0, r_angular_s2_per_rad2=0.05,
-                    qf_xy_per_m2=200.0)
+                    qf_xy_per_m2=200.0, r_change_linear_s2_per_m2=0.0, r_change_angular_s2_per_rad2=0.0)
     jerk, _ = drive(stiff)
     smooth_jerk, smooth_final = drive(replace(stiff, r_change_linear_s2_per_m2=10.0,
                                               r_change_angular_s2_per_rad2=2.0))
@@ -121,9 +121,10 @@ def test_the_ancillary_pulls_back_toward_the_nominal():
     z = controller._z.copy()
     out = controller.compute(control_input(occ, origin, z + [0.0, 0.3, 0.0], (v, w), path, 5 * DT))
     assert controller.resets == 0 and out.angular_radps < -0.2
-    # the predicted trajectory converges onto the nominal's
+    # the predicted trajectory converges onto the nominal's (to 0.12 of the offset within the
+    # horizon with the default change cost, which slows the pull; without it, to < 0.1)
     err = np.hypot(*(controller.trajectory[:, :2] - controller.nominal_trajectory[:, :2]).T)
-    assert err[-1] < 0.1 * err[0]
+    assert err[-1] < 0.2 * err[0]
 
 
 @pytest.mark.parametrize("pose, velocity, detail", [

@@ -61,8 +61,8 @@ class TubeMppiSettings:
     r_angular_s2_per_rad2: float = 0.5   # s^2/rad^2, on w - w_nominal: (rad/s)^-2
     qf_xy_per_m2: float = 50.0           # 1/m^2, terminal: the ancillary problem's x_T = z_T,
     qf_yaw_per_rad2: float = 10.0        # 1/rad^2, terminal    softened
-    r_change_linear_s2_per_m2: float = 0.0     # s^2/m^2, on u_t - u_{t-1} (per model step)
-    r_change_angular_s2_per_rad2: float = 0.0  # s^2/rad^2, on w_t - w_{t-1}
+    r_change_linear_s2_per_m2: float = 20.0    # s^2/m^2, on u_t - u_{t-1} (per model step)
+    r_change_angular_s2_per_rad2: float = 2.0  # s^2/rad^2, on w_t - w_{t-1}
     ilqr_max_iterations: int = 5         # iterations per control step (warm: a few suffice)
     mppi: MppiSettings = field(default_factory=MppiSettings)   # the nominal's MPPI (config/mppi.yaml)
 
