@@ -16,7 +16,8 @@ from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettin
 from turtlebot_recon.robot import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_control import DT, EXPERIMENT_MPPI, RES, UNICYCLE  # noqa: E402
+from bench_control import (DT, EXPERIMENT_MPPI, GOAL, RES, UNICYCLE, WAYPOINT_NOISE, drive,  # noqa: E402
+                           jerk)
 
 # seed 000's idealised unicycle and MPPI settings, as bench-control's, with fewer samples
 UNICYCLE_MPPI = replace(EXPERIMENT_MPPI, batch_size=300)
@@ -34,54 +35,36 @@ def control_input(occ, origin, pose, velocity, path, now_s=0.0):
                         np.zeros(occ.shape, np.uint8), RES, origin)
 
 
+def seed_000_trip(tube, seed):
+    """bench-control's closed loop (seed 000's noisy unicycle, (0, 0) -> (3, 3), 50 steps of
+    0.1 s) with this Tube MPPI: the commands sent and the true states."""
+    occ, origin = empty()
+    controller = TubeMppiController(replace(tube, mppi=UNICYCLE_MPPI), UNICYCLE)
+    return drive(controller, (0.0, 0.0, 0.0), lambda x: np.array([x[:2], GOAL]), 50, WAYPOINT_NOISE,
+                 np.random.default_rng(seed), occ, origin)
+
+
 def test_reaches_the_goal_under_seed_000s_noise():
     """Seed 000's noisy unicycle, (0, 0) -> (3, 3) in 50 steps of 0.1 s: control noise of
     variance 0.5 (v) and 4 (w), state noise U[-0.06, 0.06] (x, y), U[-0.3, 0.3] (yaw). Fixed
     seeds; each run ends within 0.3 m of the goal."""
-    occ, origin = empty()
-    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
-    goal = np.array([3.0, 3.0])
     for seed in (0, 1, 2):
-        rng = np.random.default_rng(seed)
-        controller.reset()
-        x, u = np.zeros(3), np.zeros(2)
-        for k in range(50):
-            out = controller.compute(control_input(occ, origin, x, u, [x[:2], goal], k * DT))
-            u = np.array([out.linear_mps, out.angular_radps])
-            assert np.isfinite(u).all() and abs(u[0]) <= 2.0 and abs(u[1]) <= 3.0
-            v, w = u + rng.normal(0.0, [math.sqrt(0.5), 2.0])
-            x = x + DT * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
-            x = x + rng.uniform([-0.06, -0.06, -0.3], [0.06, 0.06, 0.3])
-        assert np.hypot(*(x[:2] - goal)) < 0.3, seed
+        r = seed_000_trip(WIDE_TUBE, seed)
+        u = r["commands"]
+        assert np.isfinite(u).all() and (np.abs(u[:, 0]) <= 2.0).all() and (np.abs(u[:, 1]) <= 3.0).all()
+        assert np.hypot(*(r["states"][-1, :2] - GOAL)) < 0.3, seed
 
 
 def test_the_change_cost_filters_the_command():
     """Under seed 000's noise the iLQR feedback answers each step's disturbance; a cost on the
     change of the command from the last one sent (r_change_*) cuts the commands' jerk (mean
     |second difference|) by more than half on the same noise, and the robot still arrives."""
-    occ, origin = empty()
-    goal = np.array([3.0, 3.0])
-
-    def drive(tube):
-        controller = TubeMppiController(replace(tube, mppi=UNICYCLE_MPPI), UNICYCLE)
-        rng = np.random.default_rng(7)
-        x, u, sent = np.zeros(3), np.zeros(2), []
-        for k in range(50):
-            out = controller.compute(control_input(occ, origin, x, u, [x[:2], goal], k * DT))
-            u = np.array([out.linear_mps, out.angular_radps])
-            sent.append(u)
-            v, w = u + rng.normal(0.0, [math.sqrt(0.5), 2.0])
-            x = x + DT * np.array([v * math.cos(x[2]), v * math.sin(x[2]), w])
-            x = x + rng.uniform([-0.06, -0.06, -0.3], [0.06, 0.06, 0.3])
-        return np.abs(np.diff(sent, n=2, axis=0)).mean(axis=0), np.hypot(*(x[:2] - goal))
-
     stiff = replace(WIDE_TUBE, q_xy_per_m2=20.0, r_linear_s2_per_m2=1.0, r_angular_s2_per_rad2=0.05,
                     qf_xy_per_m2=200.0, r_change_linear_s2_per_m2=0.0, r_change_angular_s2_per_rad2=0.0)
-    jerk, _ = drive(stiff)
-    smooth_jerk, smooth_final = drive(replace(stiff, r_change_linear_s2_per_m2=10.0,
-                                              r_change_angular_s2_per_rad2=2.0))
-    assert (smooth_jerk < 0.5 * jerk).all(), (smooth_jerk, jerk)
-    assert smooth_final < 0.4
+    plain = seed_000_trip(stiff, 7)
+    smooth = seed_000_trip(replace(stiff, r_change_linear_s2_per_m2=10.0, r_change_angular_s2_per_rad2=2.0), 7)
+    assert (jerk(smooth["commands"]) < 0.5 * jerk(plain["commands"])).all()
+    assert np.hypot(*(smooth["states"][-1, :2] - GOAL)) < 0.4
 
 
 def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
