@@ -307,6 +307,24 @@ def test_supervisor_twist_cancels_the_goal_and_drives():
     assert run.lines("explorer: state BUMPER_BACKOFF (bumper centre)")
 
 
+def test_the_end_of_a_recovery_twist_stops_the_base():
+    # The base drives on its last command until its timeout (0.5 s): where BUMPER_BACKOFF's
+    # turn ends, a zero twist goes out, not a turn driven blind while the navigator plans.
+    run = Run()
+    run.until_goal()
+    run.tick(bumper=CENTRE)
+    twists = []
+    for _ in range(300):
+        a, b = run.tick()
+        twists += [x for x in b.actions if isinstance(x, Velocity)]
+        if b.state not in (None, "BUMPER_BACKOFF"):     # (set on a change of state only)
+            break
+    assert b.state == "EXPLORE"
+    assert any(t.angular_radps != 0.0 for t in twists)          # it turned, then
+    assert twists[-1] == Velocity(0.0, 0.0)                      # stopped as it left
+    assert not [x for x in run.actions() if isinstance(x, Velocity)]   # once
+
+
 def with_wall(column):
     grid = strip()
     occ = grid.data.copy()

@@ -547,6 +547,10 @@ class Explorer:
                 self.book.active = None
             self._log(WARNING, "explorer: supervisor blacklisted (%.2f, %.2f)", *cmd.blacklist)
             self.cycle_now = True
+        if self.mode == "twist" and cmd.kind != "twist":
+            # a recovery's last twist ends here: the base would drive on it until its command
+            # timeout (0.5 s, blind) while the navigator plans the next goal
+            out.actions.append(Velocity())
         if cmd.kind == "twist":
             self._cancel()
             out.actions.append(self._checked_twist(cmd.linear_mps, cmd.angular_radps, pose, now))

@@ -54,8 +54,9 @@ class SimSettings:
     rtf: float = 1.0                     # target real-time factor; 0 = as fast as the CPU allows
     physics_hz: float = 100.0
     cmd_timeout_s: float = 0.5           # stop when no /cmd_vel arrives for this long
-    cmd_sync_age_s: float = 0.25         # rtf 0 only: while the base moves, wait for a new /cmd_vel
-                                         # once the last is this old (sim s); 0 = never
+    cmd_sync_age_s: float = 0.11         # rtf 0 only: while the base moves, wait for a new /cmd_vel
+                                         # once the last is this old (sim s): one period of the
+                                         # navigator's 10 Hz loop and a physics step; 0 = never
     cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
     odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
