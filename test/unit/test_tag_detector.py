@@ -8,7 +8,7 @@ import pytest
 
 from conftest import room, write_world
 from turtlebot_recon.config import ConfigError, from_dict
-from turtlebot_recon.perception.detector import DetectorSettings, TagDetector
+from turtlebot_recon.perception.detector import AprilTagBackend, DetectorSettings, TagDetector
 from turtlebot_recon.perception.families import canonical, marker_set
 from turtlebot_recon.perception.image import (ImageError, camera_model, compressed_to_gray,
                                               raw_to_gray)
@@ -178,3 +178,18 @@ def test_corner_refinement_leaves_corners_at_or_past_the_edge_alone():
     gray = np.full((480, 640), 200, np.uint8)
     c = np.array([[-0.6, 100.0], [40.0, 100.0], [40.0, 140.0], [639.8, 140.0]])
     assert np.array_equal(detector()._refine(gray, c), c)
+
+
+def test_the_apriltag_detector_is_freed_detector_first():
+    # pupil_apriltags' own __del__ frees the tag families before the detector that reads them
+    # (an intermittent segfault); ours frees the detector first and leaves __del__ nothing.
+    import gc
+    img = np.zeros((120, 160), np.uint8)
+    for _ in range(50):
+        backend = AprilTagBackend(["tag36h11", "tag25h9"])
+        april = backend.april
+        assert april.tag_detector_ptr is not None
+        april.detect(img)
+        del backend
+        gc.collect()
+        assert april.tag_detector_ptr is None       # freed by free_apriltag_detector

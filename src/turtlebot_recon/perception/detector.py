@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass
 from typing import Optional
 
@@ -145,6 +146,24 @@ class OpenCVBackend:
         return out
 
 
+def free_apriltag_detector(det) -> None:
+    """Free a pupil_apriltags Detector's C side in the right order. Its own ``__del__`` frees
+    the tag families first and then the detector, whose destroy still reads them: a
+    use-after-free that crashes the process now and then (pupil-labs/apriltags issues 46, 52;
+    fixed the same way in duckietown's dt-apriltags). Here the detector goes first, then the
+    families, and ``__del__`` is left nothing to do."""
+    ptr, det.tag_detector_ptr = det.tag_detector_ptr, None
+    if ptr is None:
+        return
+    lib = det.libc
+    lib.apriltag_detector_destroy.restype = None
+    lib.apriltag_detector_destroy(ptr)
+    for family, tf in det.tag_families.items():
+        destroy = getattr(lib, f"{family}_destroy")
+        destroy.restype = None
+        destroy(tf)
+
+
 class AprilTagBackend:
     """AprilTag 3 (pupil_apriltags) for the AprilTag families; OpenCV for the others."""
 
@@ -155,6 +174,8 @@ class AprilTagBackend:
         self.april = (pupil_apriltags.Detector(families=" ".join(april), nthreads=1,
                                                quad_decimate=decimate, refine_edges=1)
                       if april else None)
+        if self.april is not None:
+            weakref.finalize(self, free_apriltag_detector, self.april)
         rest = [f for f in families if not is_apriltag(f)]
         self.opencv = OpenCVBackend(rest, decimate) if rest else None
 
