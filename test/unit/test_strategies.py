@@ -16,11 +16,11 @@ import pytest
 
 from turtlebot_recon.config import ConfigError, load_yaml
 from turtlebot_recon.exploration import tour
+from turtlebot_recon.exploration.context import Context
 from turtlebot_recon.exploration.frontiers import Frontier, cluster, find_frontier_cells
 from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings, ProgressWatchdog, stands_for
-from turtlebot_recon.exploration.strategies import (STRATEGIES, Context, Density, ExploreLite,
-                                                    GainDistanceHeading, Nearest, Recon, Sampled,
-                                                    load_strategy, make_strategy)
+from turtlebot_recon.exploration.strategies import (STRATEGIES, Density, ExploreLite, GainDistanceHeading,
+                                                    Nearest, Recon, Sampled, load_strategy, make_strategy)
 from turtlebot_recon.planning import dijkstra
 
 TOP = Path(__file__).resolve().parents[2]

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from turtlebot_recon.exploration.strategies import Context
+from turtlebot_recon.exploration.context import Context
 from turtlebot_recon.exploration.tag_search import (TagSearch, TagSearchSettings, View,
                                                     best_window)
 from turtlebot_recon.perception.tracker import Glimpse

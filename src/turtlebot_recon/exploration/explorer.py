@@ -67,9 +67,9 @@ from ..geometry import inside, xy_to_cell
 from ..planning import (INSCRIBED, LatticeSettings, escape_arcs, footprint_costmap,
                         lattice_cost_to_come)
 from ..robot import RobotSpec
+from .context import Context
 from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
-from .strategies import Context
 from .tag_search import TagSearch, View
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's

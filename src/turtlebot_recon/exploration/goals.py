@@ -22,20 +22,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..config import positive, require
 from ..geometry import cells_to_points, inside
+from .context import Context, Point
+from .frontiers import Frontier
 from .viewpoints import Tried
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .frontiers import Frontier
-    from .strategies import Context
-
-Point = Tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -125,7 +121,7 @@ class GoalBook:
 
     # -------------------------------------------------------------- attempts and outcomes
 
-    def start(self, frontier: "Frontier", ctx: "Context") -> ActiveGoal:
+    def start(self, frontier: Frontier, ctx: Context) -> ActiveGoal:
         """Count an attempt at ``frontier.goal``; it becomes the active goal (watchdog reset)."""
         self._starts.append(_xy(frontier.goal))
         points = cells_to_points(np.reshape(frontier.cells, (-1, 2)), ctx.resolution, ctx.origin)
@@ -232,12 +228,12 @@ class GoalBook:
             return False
         return self.watchdog.update(self.active.goal, distance_m, now_s)
 
-    def should_reevaluate(self, current: Optional[ActiveGoal], frontiers: Sequence["Frontier"],
-                          ctx: "Context") -> bool:
+    def should_reevaluate(self, current: Optional[ActiveGoal], frontiers: Sequence[Frontier],
+                          ctx: Context) -> bool:
         return self.reevaluate_reason(current, frontiers, ctx) is not None
 
-    def reevaluate_reason(self, current: Optional[ActiveGoal], frontiers: Sequence["Frontier"],
-                          ctx: "Context") -> Optional[str]:
+    def reevaluate_reason(self, current: Optional[ActiveGoal], frontiers: Sequence[Frontier],
+                          ctx: Context) -> Optional[str]:
         """Why the active goal should be dropped for a fresh choice, or None to keep it.
 
         "blocked": its cell is off the map or costs more than ctx.max_cost (an obstacle
@@ -272,7 +268,7 @@ class GoalBook:
             self.watchdog.reset()
 
 
-def stands_for(sent_xy: Point, choice_xy: Point, same_goal_m: float, ctx: "Context") -> bool:
+def stands_for(sent_xy: Point, choice_xy: Point, same_goal_m: float, ctx: Context) -> bool:
     """Whether the goal already sent to the navigator stands for the new choice: within
     ``same_goal_m`` of it and still a goal the robot can stand on and reach. A goal just
     dropped as blocked does not: kept, it is blocked again at the next cycle and counted twice."""

@@ -33,7 +33,7 @@ from ..geometry import inside, points_to_cells
 from ..perception.camera_coverage import CameraCoverage, CoverageSettings
 from ..perception.tracker import Glimpse
 from ..robot import CameraSpec
-from .strategies import Context
+from .context import Context
 
 
 TAG_LOOKS = 2          # views reached per unconfirmed tag before it is left as it is

@@ -23,27 +23,20 @@ move_base to the nearest plannable cell); a point with none is skipped. Such goa
 returned as a copy of their frontier with ``goal``, ``goal_cell`` and ``path_cost_m``
 replaced (``gain`` stays the cluster's).
 
-This module is the contract (``Context``, ``Strategy``) and the registry (``STRATEGIES``,
-``make_strategy``, ``load_strategy``); each strategy lives in the module named after it,
-with helpers used by several of them in ``common``. To add one: a module with a frozen
+The contracts live apart: ``exploration.context.Context`` (what a strategy sees) and
+``base.Strategy`` (what a strategy class provides). This module is the registry
+(``STRATEGIES``, ``make_strategy``, ``load_strategy``); each strategy lives in the module named
+after it, with helpers used by several of them in ``common``. To add one: a module with a frozen
 ``Settings`` dataclass (``validate``) and a class with ``name``, ``Settings`` and ``choose``,
 an entry in ``STRATEGIES``, a block in config/explorer.yaml and a test.
 """
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from functools import cached_property
-from typing import Dict, List, Optional, Protocol, Sequence, Tuple
+from typing import Dict, Optional, Tuple
 
-import numpy as np
-from scipy import ndimage
-
-from ... import geometry
 from ...config import ConfigError, from_dict
-from ..frontiers import Frontier
-from ..goals import GoalBook, GoalBookSettings
-from .common import Cell, Point
+from ..goals import GoalBookSettings
+from .base import Strategy
 from .density import Density
 from .explore_lite import ExploreLite
 from .gain_distance_heading import GainDistanceHeading
@@ -51,72 +44,9 @@ from .nearest import Nearest
 from .recon import Recon
 from .sampled import Sampled
 
-__all__ = ["Context", "Strategy", "STRATEGIES", "DEFAULT_STRATEGY", "make_strategy",
-           "load_strategy", "Nearest", "Density", "GainDistanceHeading", "Sampled",
-           "ExploreLite", "Recon"]
+__all__ = ["Strategy", "STRATEGIES", "DEFAULT_STRATEGY", "make_strategy", "load_strategy", "Nearest",
+           "Density", "GainDistanceHeading", "Sampled", "ExploreLite", "Recon"]
 
-
-@dataclass(frozen=True, eq=False)
-class Context:
-    """What a strategy may look at. Grids: nav_msgs/OccupancyGrid order (row 0 = smallest y)."""
-    robot_xy: Point                   # m, map frame
-    robot_yaw: float                  # rad, map frame
-    now_s: float                      # s, the caller's clock (sim or ROS time)
-    resolution: float                 # m per cell
-    origin: Tuple[float, ...]         # (x, y[, yaw]) m of cell (0, 0)'s corner, yaw ignored
-    occupancy: np.ndarray             # int8: -1 unknown, 0..100
-    costmap: np.ndarray               # uint8 Nav2 costmap (253 inscribed, 254 lethal, 255 unknown)
-    cost_to_come: np.ndarray          # float32 Dijkstra field from the robot (m, cost-weighted)
-    visits: Optional[np.ndarray]      # int32 visit counts (seed 001), or None
-    rng: np.random.Generator          # seeded by the caller
-    max_cost: int = 252               # a goal cell must cost <= this (below inscribed)
-    priority_goals: Tuple[Point, ...] = ()  # points to visit before frontiers (seed 000: tags)
-
-    def xy_to_cell(self, xy: Sequence[float]) -> Cell:
-        return geometry.xy_to_cell(xy, self.resolution, self.origin)
-
-    def cell_to_xy(self, cell: Sequence[int]) -> Point:
-        return geometry.cell_to_xy(cell, self.resolution, self.origin)
-
-    @cached_property
-    def reachable(self) -> np.ndarray:
-        """Bool grid: a cell the robot can stand on and reach."""
-        return np.isfinite(self.cost_to_come) & (self.costmap <= self.max_cost)
-
-    @cached_property
-    def _nearest_reachable(self) -> Optional[np.ndarray]:
-        if not self.reachable.any():
-            return None
-        return ndimage.distance_transform_edt(~self.reachable, return_distances=False,
-                                              return_indices=True)
-
-    def goal_ok(self, cell: Sequence[int]) -> bool:
-        r, c = int(cell[0]), int(cell[1])
-        return geometry.inside(r, c, self.reachable.shape) and bool(self.reachable[r, c])
-
-    def snap(self, xy: Sequence[float], radius_m: float) -> Optional[Cell]:
-        """The reachable cell nearest ``xy`` (its centre within radius_m), or None."""
-        index = self._nearest_reachable
-        if index is None:
-            return None
-        rows, cols = self.reachable.shape
-        r, c = self.xy_to_cell(xy)
-        r, c = min(max(r, 0), rows - 1), min(max(c, 0), cols - 1)   # off the grid: its edge
-        cell = (int(index[0][r, c]), int(index[1][r, c]))
-        return cell if math.dist(self.cell_to_xy(cell), xy) <= radius_m + 1e-9 else None
-
-
-class Strategy(Protocol):
-    """What every strategy class provides: its YAML ``name``, a frozen ``Settings`` dataclass
-    (its constructor's one argument) and ``choose``, which may update the strategy's own
-    memory and the book (explore_lite blacklists) but never blocks."""
-    name: str
-
-    def choose(self, frontiers: List[Frontier], ctx: Context, book: GoalBook) -> Optional[Frontier]:
-        ...
-
-
-# ------------------------------------------------------------------ registry and configuration
 
 STRATEGIES: Dict[str, type] = {cls.name: cls for cls in
                                (Nearest, Density, GainDistanceHeading, Sampled, ExploreLite, Recon)}

@@ -3,19 +3,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, List, Sequence, Tuple
+from typing import List, Sequence
 
 import numpy as np
 
 from ...geometry import wrap_angle
+from ..context import Cell, Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
-
-if TYPE_CHECKING:  # pragma: no cover
-    from . import Context
-
-Point = Tuple[float, float]
-Cell = Tuple[int, int]
 
 
 def reachable_only(frontiers: Sequence[Frontier]) -> List[Frontier]:

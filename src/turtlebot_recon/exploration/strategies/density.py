@@ -3,19 +3,17 @@ frontier cells."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ...config import positive, require
 from ...geometry import cells_to_points
+from ..context import Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
 from .common import reachable_only, with_goal
-
-if TYPE_CHECKING:  # pragma: no cover
-    from . import Context   # the contract; the package imports this module to register it
 
 
 def _box_count(mask: np.ndarray, k: int) -> np.ndarray:

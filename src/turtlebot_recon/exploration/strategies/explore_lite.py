@@ -3,15 +3,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional
+from typing import List, Optional
 
 from ...config import positive, require
+from ..context import Context, Point
 from ..frontiers import Frontier
 from ..goals import GoalBook
-from .common import Point, distance, reachable_only, with_goal
-
-if TYPE_CHECKING:  # pragma: no cover
-    from . import Context   # the contract; the package imports this module to register it
+from .common import distance, reachable_only, with_goal
 
 
 @dataclass(frozen=True)

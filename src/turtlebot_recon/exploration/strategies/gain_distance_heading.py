@@ -3,17 +3,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional
+from typing import List, Optional
 
 import numpy as np
 
 from ...config import require
+from ..context import Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
 from .common import distance, heading_error, usable, window_around
-
-if TYPE_CHECKING:  # pragma: no cover
-    from . import Context   # the contract; the package imports this module to register it
 
 
 @dataclass(frozen=True)

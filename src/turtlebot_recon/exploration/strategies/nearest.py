@@ -2,15 +2,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, List, Optional
+from typing import List, Optional
 
 from ...config import positive
+from ..context import Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
 from .common import distance, reachable_only, with_goal
-
-if TYPE_CHECKING:  # pragma: no cover
-    from . import Context   # the contract; the package imports this module to register it
 
 
 @dataclass(frozen=True)
