@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import Optional
 
 from .config import ConfigError, from_dict, load_yaml, positive, require
+from .paths import SHARE_DIR
 
-CONFIG_DIR = Path(__file__).resolve().parents[2] / "config" / "robots"
+CONFIG_DIR = SHARE_DIR / "config" / "robots"
 
 
 @dataclass(frozen=True)

@@ -19,10 +19,11 @@ from ..config import load_yaml, ConfigError
 from ..geometry import cell_to_xy, inside, xy_to_cell
 from ..perception.families import canonical, marker_count, marker_set
 from ..mapping.map_io import MAP_KEYS, MapError, map_number, occupancy_classes
+from ..paths import SHARE_DIR
 
 log = logging.getLogger(__name__)
 
-WORLDS_DIR = Path(__file__).resolve().parents[3] / "worlds"
+WORLDS_DIR = SHARE_DIR / "worlds"
 EXTRA_KEYS = {"start", "wall_height", "tags"}
 TAG_KEYS = {"id", "family", "x", "y", "z", "yaw", "size"}
 START_CLEARANCE_M = 0.35   # an automatic start leaves this much room around the robot centre
