@@ -22,6 +22,7 @@ except ImportError:
 
 from turtlebot_recon.config import ConfigError, from_dict, load_yaml
 from turtlebot_recon.robot import load_robot
+from turtlebot_recon.ros.bags import read_log
 from turtlebot_recon.slam.logs import LogError
 from turtlebot_recon.slam.offline import localize_log, run_log
 from turtlebot_recon.slam.node_settings import SlamNodeSettings
@@ -44,11 +45,11 @@ def main(argv=None) -> int:
         robot = load_robot(a.robot)
         lid = robot.lidar
         if a.map:
-            result = localize_log(a.log, a.map, a.output, node.localization, robot.wheel_separation_m,
+            result = localize_log(read_log(a.log), a.map, a.output, node.localization, robot.wheel_separation_m,
                                   (lid.x_m, lid.y_m, 0.0), tuple(a.initial_pose),
                                   log=lambda line: print(line, file=sys.stderr))
         else:
-            result = run_log(a.log, a.output, node.slam, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
+            result = run_log(read_log(a.log), a.output, node.slam, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
                              log=lambda line: print(line, file=sys.stderr))
     except (ConfigError, LogError, OSError, ValueError, KeyError, TypeError) as exc:
         print(f"slam_log: {exc}", file=sys.stderr)

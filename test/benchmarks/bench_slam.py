@@ -40,6 +40,7 @@ from turtlebot_recon.evaluation.metrics import map_precision  # noqa: E402
 from turtlebot_recon.evaluation.trajectory_metrics import ate, read_tum  # noqa: E402
 from turtlebot_recon.mapping.map_io import load_map  # noqa: E402
 from turtlebot_recon.robot import load_robot  # noqa: E402
+from turtlebot_recon.ros.bags import BagReader, write_rosbag  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 from turtlebot_recon.sim.recorder import record_run  # noqa: E402
 from turtlebot_recon.slam.datasets import run_city10000  # noqa: E402
@@ -65,7 +66,7 @@ def slam_offline(world, robot, run, slip: float, out_dir: Path, settings: SlamSe
     against the ground truth."""
     lid = robot.lidar
     before = rss_mb()
-    res = run_log(run.bag, out_dir, settings, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0), log=lambda *a: None)
+    res = run_log(BagReader(run.bag), out_dir, settings, robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0), log=lambda *a: None)
     grown = rss_mb() - before
     gt = read_tum(run.ground_truth)
     a_slam = ate(read_tum(out_dir / "trajectory.tum"), gt, 0.02)
@@ -98,7 +99,7 @@ def recorded(drive_s: float, seed: int) -> dict:
         runs = {}
         for level, slip in DRIFTS.items():
             d = tmp / f"{w}_{level}"
-            run = record_run(world, robot, drive_s, seed=seed, odom_slip=slip, out_dir=d, bag=True)
+            run = record_run(world, robot, drive_s, seed=seed, odom_slip=slip, out_dir=d, bag_writer=write_rosbag)
             out[f"{w}/{level}"] = slam_offline(world, robot, run, slip, d / "slam", SlamSettings(), f"{w:7s} {level:8s}")
             runs[level] = (run, d)
             if level == "12pct":   # the same drive with SLAM's odometry model set to the robot's slip
@@ -108,7 +109,7 @@ def recorded(drive_s: float, seed: int) -> dict:
         # mode localization: the 3x-drift drive tracked in the map SLAM made of the default one
         # (both start where the world starts: the same map frame)
         run, d = runs["3x"]
-        loc = localize_log(run.bag, runs["default"][1] / "slam" / "map.yaml", d / "localization",
+        loc = localize_log(BagReader(run.bag), runs["default"][1] / "slam" / "map.yaml", d / "localization",
                            LocalizationSettings(), robot.wheel_separation_m, (lid.x_m, lid.y_m, 0.0),
                            log=lambda *a: None)
         a_loc = ate(read_tum(d / "localization" / "trajectory.tum"), read_tum(run.ground_truth), 0.02)

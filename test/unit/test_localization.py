@@ -112,13 +112,14 @@ def test_localize_log_tracks_a_recorded_drive_in_the_map(tmp_path):
     from turtlebot_recon.evaluation.trajectory_metrics import ate, read_tum
     from turtlebot_recon.sim import load_world
     from turtlebot_recon.sim.recorder import record_run
+    from turtlebot_recon.slam.logs import CarmenReader
     from turtlebot_recon.slam.offline import localize_log
     path = loop_world(tmp_path)
     world = load_world(path)
     robot = load_robot("turtlebot3_burger")
-    run = record_run(world, robot, 90.0, seed=3, odom_slip=0.03, out_dir=tmp_path / "rec", bag=False,
+    run = record_run(world, robot, 90.0, seed=3, odom_slip=0.03, out_dir=tmp_path / "rec",
                      odom_heading="wheels")
-    res = localize_log(run.carmen, path, tmp_path / "loc", wheel_separation_m=robot.wheel_separation_m,
+    res = localize_log(CarmenReader(run.carmen), path, tmp_path / "loc", wheel_separation_m=robot.wheel_separation_m,
                        initial_pose=world.start, log=lambda *a: None)
     gt = read_tum(run.ground_truth)                           # in the start frame
     gt_map = np.array([(t, *compose(world.start, p)) for t, *p in gt])

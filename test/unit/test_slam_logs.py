@@ -8,10 +8,11 @@ import pytest
 
 from turtlebot_recon.evaluation.trajectory_metrics import read_tum
 from turtlebot_recon.sim.recorder import record_run
-from turtlebot_recon.slam.logs import (BagReader, CarmenReader, ImuRecord, LaserRecord, LogError, OdomRecord,
-                                       TimeJump, flaser_geometry, write_carmen, write_rosbag)
+from turtlebot_recon.slam.logs import (CarmenReader, ImuRecord, LaserRecord, LogError, LogStats, OdomRecord,
+                                       TimeJump, flaser_geometry, in_stamp_order, write_carmen)
 
 rosbag = pytest.importorskip("rosbag")   # Debian's python3-rosbag (tools/apt-packages.txt)
+from turtlebot_recon.ros.bags import BagReader, write_rosbag  # noqa: E402  (the ROS layer: needs rosbag)
 
 
 def laser(t, ranges, odom=(1.0, 2.0, 0.5), laser_pose=(1.1, 2.0, 0.5), angle_min=-1.0, inc=0.25,
@@ -191,16 +192,39 @@ def test_bag_round_trip_reorder_late_and_time_jump(tmp_path):
     assert [r.yaw_rate for r in back if isinstance(r, ImuRecord)] == [0.3]
 
 
-def test_core_imports_without_rosbag(tmp_path):
-    (tmp_path / "a.bag").write_bytes(b"")
+def test_core_reads_carmen_without_ros(tmp_path):
+    """The core's logs, the offline pipeline and the recorder import and read CARMEN without ROS;
+    the bag reader, ROS's, says what is missing."""
     write_carmen(tmp_path / "a.clf", [OdomRecord(1.0, 0, 0, 0, 0, 0)])
-    code = ("import sys; sys.modules['rosbag'] = None      # as on a machine without ROS\n"
-            "import turtlebot_recon.slam.logs as logs\n"
+    code = ("import sys\n"
+            "for m in ('rosbag', 'genpy', 'rospy', 'sensor_msgs', 'nav_msgs'):\n"
+            "    sys.modules[m] = None                    # as on a machine without ROS\n"
+            "import turtlebot_recon.slam.logs as logs, turtlebot_recon.slam.offline, turtlebot_recon.sim.recorder\n"
             "print(len(list(logs.CarmenReader(sys.argv[1] + '/a.clf'))))\n"
-            "try:\n    logs.BagReader(sys.argv[1] + '/a.bag')\nexcept ImportError as e:\n    print(e)\n")
+            "try:\n    import turtlebot_recon.ros.bags\nexcept ImportError as e:\n    print(e)\n")
     out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.startswith("1\n") and "needs ROS's rosbag module (Debian: python3-rosbag)" in out.stdout
+    assert out.stdout.startswith("1\n") and "genpy" in out.stdout
+
+
+def test_streams_merge_in_stamp_order_late_and_jumps():
+    """in_stamp_order without a bag: a silent stream holds nothing back longer than max_lag_s,
+    a record older than one already given is late, a jump back flushes and starts a new run,
+    and a stream's records from before its own jump are skipped."""
+    def scan(t):
+        return LaserRecord(float(t), np.ones(2, np.float32), -1.0, 0.25, 0.12, 3.5)
+    recorded = [("scan", scan(t)) for t in range(1, 11)]           # the odometry silent until 10 s
+    recorded += [("odom", OdomRecord(2.0, 0, 0, 0, 0, 0)),        # 10 - 5 s of lag: up to 5 s given, late
+                 ("odom", OdomRecord(6.0, 0, 0, 0, 0, 0)),        # within the lag: merged
+                 ("scan", scan(2.0)),                             # the bag looped (8 s > jump_back_s)
+                 ("odom", OdomRecord(9.0, 0, 0, 0, 0, 0))]        # odometry of the first run: skipped
+    stats = LogStats("test")
+    out = list(in_stamp_order(iter(recorded), ["scan", "odom"], stats, max_lag_s=5.0, jump_back_s=1.0))
+    assert [(type(r).__name__[0], r.stamp_s) for r in out] == \
+        [("L", t) for t in (1, 2, 3, 4, 5, 6)] + [("O", 6.0)] + [("L", t) for t in (7, 8, 9, 10)] + \
+        [("T", 2.0), ("L", 2.0)]
+    assert out[-2] == TimeJump(2.0, 10.0)
+    assert stats.skipped == {"late": 1, "before the jump": 1} and stats.jumps == [TimeJump(2.0, 10.0)]
 
 
 @pytest.fixture(scope="module")
@@ -210,7 +234,7 @@ def runs(tmp_path_factory):
     d = tmp_path_factory.mktemp("runs")
     world = write_world(d, "room", room(4.0, 3.0), start=[1.0, 1.5, 0.3])
     return {slip: record_run(world, "turtlebot3_burger", 20.0, seed=2, odom_slip=slip, out_dir=d / f"slip{slip}",
-                              odom_heading="wheels")
+                              odom_heading="wheels", bag_writer=write_rosbag)
             for slip in (0.0, 0.02)}
 
 

@@ -6,7 +6,8 @@ velocity commands) for a given time and writes, in ``out_dir``:
 - ``run.clf``: a CARMEN log, ROBOTLASER1 per scan (robot pose = the wheel odometry at the scan,
   laser pose = that pose with the lidar's mount offset) and ODOM at the odometry rate: the
   odometry drifts as the simulator's does (``odom_slip``, std per sqrt(m) of each wheel);
-- ``run.bag`` (when ROS's rosbag module imports): ``/scan``, ``/odom``, ``/imu`` of the same run;
+- ``run.bag`` (given a ``bag_writer``, such as ``ros.bags.write_rosbag``: the ROS layer's, kept
+  out of the simulator): ``/scan``, ``/odom``, ``/imu`` of the same run;
 - ``ground_truth.tum``: the true base pose in the odometry's frame, whose origin is the start
   pose (the project's map frame, ``evaluation.coverage.world_to_map``), at every scan and at
   ``ground_truth_rate_hz``; with ``odom_slip`` 0 it equals the odometry;
@@ -19,14 +20,14 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional, Sequence, Tuple, Union
+from typing import Callable, Iterable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from ..evaluation.trajectory_metrics import write_tum
 from ..geometry import between, compose
 from ..robot import RobotSpec, load_robot
-from ..slam.logs import ImuRecord, LaserRecord, OdomRecord, write_carmen, write_rosbag
+from ..slam.logs import ImuRecord, LaserRecord, OdomRecord, Record, write_carmen
 from .simulator import SimSettings, Simulator
 from .wander import WanderSettings, command, sectors
 from .world import World, load_world
@@ -34,6 +35,7 @@ from .world import World, load_world
 COMMAND_PERIOD_S = 0.1    # re-send the latest command like a controller (cmd_timeout_s is 0.5 s)
 
 Command = Tuple[float, float, float]   # (duration s, linear m/s, angular rad/s)
+BagWriter = Callable[[Path, Iterable[Record]], int]   # (path, records) -> messages written
 
 
 @dataclass(frozen=True)
@@ -41,25 +43,17 @@ class RecordedRun:
     carmen: Path
     ground_truth: Path
     odometry: Path
-    bag: Optional[Path]        # None when rosbag is not importable
+    bag: Optional[Path]        # None without a bag_writer
     scans: int
     distance_m: float          # true distance driven
     collisions: int
 
 
-def _rosbag_importable() -> bool:
-    try:
-        import rosbag  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 def record_run(world: Union[str, Path, World], robot: Union[str, RobotSpec], seconds: float,
                seed: int = 0, odom_slip: float = 0.0, out_dir: Union[str, Path] = ".", odom_heading: str = "wheels",
-               commands: Optional[Sequence[Command]] = None, bag: bool = True) -> RecordedRun:
+               commands: Optional[Sequence[Command]] = None, bag_writer: Optional[BagWriter] = None) -> RecordedRun:
     """Drive ``seconds`` of sim time with the wander (or ``commands``, then stop) and write the
-    logs; returns their paths. ``bag=False`` or no rosbag module: no bag."""
+    logs; returns their paths. Without ``bag_writer``: no bag."""
     world = world if isinstance(world, World) else load_world(world)
     robot = robot if isinstance(robot, RobotSpec) else load_robot(robot)
     out = Path(out_dir)
@@ -76,8 +70,8 @@ def record_run(world: Union[str, Path, World], robot: Union[str, RobotSpec], sec
     write_carmen(run.carmen, [r for r in records if not isinstance(r, ImuRecord)])
     write_tum(run.ground_truth, np.array([(t, *p) for t, p in sorted(truth.items())]))
     write_tum(run.odometry, np.array(odom))
-    if bag and _rosbag_importable():
-        write_rosbag(out / "run.bag", records)
+    if bag_writer is not None:
+        bag_writer(out / "run.bag", records)
         run = dataclasses.replace(run, bag=out / "run.bag")
     return run
 

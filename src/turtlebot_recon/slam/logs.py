@@ -1,11 +1,15 @@
 """Sensor logs a run can be replayed from: CARMEN text logs and rosbags, read into plain records.
 
-Both readers yield the same records, oldest first: ``LaserRecord``, ``OdomRecord``,
+The readers yield the same records, oldest first: ``LaserRecord``, ``OdomRecord``,
 ``ImuRecord`` (rosbag only), ``TagRecord`` (rosbag only) and ``TimeJump`` (rosbag only: time
 went back, as when a looping bag was recorded; a consumer clears its state). A line or message
 that cannot be used is skipped and counted by reason, never raised out of the iterator; after
 the iteration ``summary()`` gives one line for the caller to log. ``LogError`` is raised only
 for a file that cannot be read at all.
+
+This module is format-free but for CARMEN's text: rosbags are read and written by
+``turtlebot_recon.ros.bags`` (the ROS layer: rosbag and the message classes), which merges a
+bag's topics into one stream with ``in_stamp_order``.
 
 CARMEN (http://carmen.sourceforge.net/logger_playback.html and the logger's writer,
 ``carmen_logwrite_write_robot_laser`` in CARMEN 0.7's ``logger/writelog.c``): one message per
@@ -33,10 +37,6 @@ beyond the maximum range is CARMEN's "no return" and becomes +inf (REP 117), a r
 becomes NaN; comments (``#``) and other messages (PARAM, SYNC, NMEA..., ROBOTLASER2) are
 counted and skipped.
 
-rosbag: ``/scan`` (sensor_msgs/LaserScan), ``/odom`` (nav_msgs/Odometry), optionally ``/imu``
-(sensor_msgs/Imu: yaw rate) and ``/tags/detections`` (turtlebot_recon/TagDetectionArray, kept
-as the message). ``rosbag`` (Debian's python3-rosbag) is imported only when a bag is read or
-written, so this module imports without ROS.
 """
 from __future__ import annotations
 
@@ -48,11 +48,10 @@ import re
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator, List, Optional, Tuple, Union
+from typing import Any, Collection, Iterable, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
 
-from ..geometry import yaw_from_quaternion
 
 FLASER_RANGE_MAX_M = 81.9     # SICK LMS (the FLASER datasets' laser): 8191 cm is "no return"
 MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*$")
@@ -365,208 +364,63 @@ def _laser_line(rec: LaserRecord, flaser: bool) -> str:
     return f"ROBOTLASER1 {head} " + " ".join(_f(v) for v in (*laser, *odom)) + " 0.0 0.0 0.0 0.0 0.0"
 
 
-# ------------------------------------------------------------------------------------ rosbag
-def _rosbag():
-    """The rosbag module and the message classes, imported on first use."""
-    try:
-        import genpy
-        import rosbag
-        from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import Imu, LaserScan
-    except ImportError as e:
-        raise ImportError(f"reading or writing a rosbag needs ROS's rosbag module "
-                          f"(Debian: python3-rosbag): {e}") from e
-    return rosbag, genpy, LaserScan, Odometry, Imu
+# ------------------------------------------------------------------------------------ merging streams
+def in_stamp_order(records: Iterable[Tuple[str, Record]], continuous: Collection[str], stats: LogStats,
+                   max_lag_s: float = 5.0, jump_back_s: float = 1.0) -> Iterator[Record]:
+    """(stream, record) pairs in recording order (a bag's topics) merged into stamp order.
 
+    Each stream's own stamps only go forward, but one stream can reach the recorder seconds
+    after another (rosbag record's per-topic queues under load, a simulation running faster
+    than real time): a record is given once every ``continuous`` stream (all but the tags) has
+    passed its stamp, or once it is ``max_lag_s`` older than the newest stamp (a stream that fell
+    silent). A stream's stamp more than ``jump_back_s`` older than its own previous one is a
+    jump back (a looping bag): the first stream to jump flushes the buffer and yields a
+    TimeJump; the others' records from before their own jump are then skipped as "before the
+    jump". A record older than its stream's previous within ``jump_back_s``, or older than one
+    already given, is late and skipped. Skips, reorderings and jumps are counted in ``stats``."""
+    heap: list = []
+    seq = itertools.count()
+    epoch = 0                    # time jumps so far
+    last: dict = {}              # stream -> (its epoch, its newest stamp)
+    newest, last_out = -math.inf, -math.inf
 
-class BagReader:
-    """Records of a rosbag in header-stamp order, with TimeJump where time went back.
+    def watermark() -> float:
+        """The stamp every continuous stream has passed in this epoch (-inf while one has not
+        spoken in it yet)."""
+        return min((last[t][1] if t in last and last[t][0] == epoch else -math.inf for t in continuous),
+                   default=-math.inf)
 
-    Messages are read in the bag's (recording) order and merged by header stamp. Each topic's
-    own stamps only go forward, but one topic can reach the recorder seconds after another
-    (rosbag record's per-topic queues under load, a simulation running faster than real time):
-    a message is given once every continuous topic (all but the tags) has passed its stamp, or
-    once it is ``max_lag_s`` older than the newest stamp (a topic that fell silent). A topic's
-    stamp more than ``jump_back_s`` older than its own previous one is a jump back (a looping
-    bag): the first topic to jump flushes the buffer and yields a TimeJump; the others' messages
-    from before their own jump are then skipped as "before the jump". A message older than its
-    topic's previous within ``jump_back_s``, or older than one already given, is late and
-    skipped. A zero header stamp takes the bag's time. ``imu_topic`` / ``tags_topic`` may be
-    None or absent from the bag."""
-
-    EXPECTED = {"scan": "sensor_msgs/LaserScan", "odom": "nav_msgs/Odometry",
-                "imu": "sensor_msgs/Imu", "tags": "turtlebot_recon/TagDetectionArray"}
-
-    def __init__(self, path: Union[str, Path], scan_topic: str = "/scan", odom_topic: str = "/odom",
-                 imu_topic: Optional[str] = "/imu", tags_topic: Optional[str] = "/tags/detections",
-                 max_lag_s: float = 5.0, jump_back_s: float = 1.0):
-        self.path = Path(path)
-        if not self.path.is_file():
-            raise LogError(f"{self.path}: no such file")
-        rosbag = _rosbag()[0]
-        try:
-            with rosbag.Bag(str(self.path)) as bag:
-                types = {t: i.msg_type for t, i in bag.get_type_and_topic_info().topics.items()}
-        except Exception as e:   # ROSBagException, ROSBagFormatException, struct errors...
-            raise LogError(f"{self.path}: not a readable rosbag ({type(e).__name__}: {e})") from None
-        wanted = {"scan": scan_topic, "odom": odom_topic, "imu": imu_topic, "tags": tags_topic}
-        if scan_topic not in types:
-            raise LogError(f"{self.path}: no {scan_topic} in the bag (topics: {', '.join(sorted(types)) or 'none'})")
-        self.topics = {}
-        for kind, topic in wanted.items():
-            if topic is None or topic not in types:
-                continue
-            if types[topic] != self.EXPECTED[kind]:
-                raise LogError(f"{self.path}: {topic} is {types[topic]}, expected {self.EXPECTED[kind]}")
-            self.topics[topic] = kind
-        self.max_lag_s, self.jump_back_s = max_lag_s, jump_back_s
-        self.stats = LogStats(self.path.name)
-
-    def summary(self) -> str:
-        return self.stats.summary()
-
-    def __iter__(self) -> Iterator[Record]:
-        self.stats = LogStats(self.path.name)
-        rosbag = _rosbag()[0]
-        with rosbag.Bag(str(self.path)) as bag:
-            stamped = ((topic, self._convert(topic, msg, t.to_sec()))
-                       for topic, msg, t in bag.read_messages(topics=list(self.topics)))
-            for rec in self._ordered((topic, r) for topic, r in stamped if r is not None):
-                self.stats.kept[type(rec).__name__] += 1
-                yield rec
-
-    def _convert(self, topic: str, msg, bag_s: float) -> Optional[Record]:
-        kind = self.topics[topic]
-        stamp = msg.header.stamp.to_sec()
-        if stamp == 0.0:
-            self.stats.ignored["zero stamps (bag time used)"] += 1
-            stamp = bag_s
-        if kind == "scan":
-            values = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
-            if not all(math.isfinite(v) for v in values) or msg.angle_increment == 0.0:
-                self.stats.skip("bad scan", f"{topic} at {stamp:.3f} s", f"geometry {values}")
-                return None
-            return LaserRecord(stamp, np.asarray(msg.ranges, dtype=np.float32), *values)
-        if kind == "odom":
-            p, tw = msg.pose.pose, msg.twist.twist
-            vals = (p.position.x, p.position.y, float(yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)), tw.linear.x, tw.angular.z)
-            if not all(math.isfinite(v) for v in vals):
-                self.stats.skip("non-finite odometry", f"{topic} at {stamp:.3f} s", f"{vals}")
-                return None
-            return OdomRecord(stamp, *vals)
-        if kind == "imu":
-            w = msg.angular_velocity.z
-            if not math.isfinite(w):
-                self.stats.skip("non-finite imu", f"{topic} at {stamp:.3f} s", f"yaw rate {w}")
-                return None
-            return ImuRecord(stamp, w)
-        return TagRecord(stamp, msg)
-
-    def _ordered(self, records: Iterable[tuple]) -> Iterator[Record]:
-        """Merge (topic, record) pairs in recording order into stamp order (see the class)."""
-        heap: list = []
-        seq = itertools.count()
-        epoch = 0                    # time jumps so far
-        last: dict = {}              # topic -> (its epoch, its newest stamp)
-        newest, last_out = -math.inf, -math.inf
-
-        streams = [topic for topic, kind in self.topics.items() if kind != "tags"]
-
-        def watermark() -> float:
-            """The stamp every continuous topic has passed in this epoch (-inf while one has not
-            spoken in it yet)."""
-            return min(last[t][1] if t in last and last[t][0] == epoch else -math.inf for t in streams)
-
-        for topic, rec in records:
-            s = rec.stamp_s
-            topic_epoch, previous = last.get(topic, (epoch, -math.inf))
-            if s < previous - self.jump_back_s:          # this topic's time went back
-                if topic_epoch < epoch:                   # another topic's jump started the new run
-                    topic_epoch = epoch
-                else:
-                    while heap:
-                        yield heapq.heappop(heap)[2]
-                    jump = TimeJump(s, newest)
-                    self.stats.jumps.append(jump)
-                    yield jump
-                    epoch += 1
-                    topic_epoch = epoch
-                    newest, last_out = s, -math.inf
-                previous = -math.inf
-            elif topic_epoch < epoch:
-                self.stats.skip("before the jump", f"{type(rec).__name__} at {s:.3f} s",
-                                "recorded after the time jump, stamped before it")
-                continue
-            if s < previous or s < last_out:
-                self.stats.skip("late", f"{type(rec).__name__} at {s:.3f} s",
-                                f"{max(previous, last_out) - s:.3f} s older than one before it")
-                continue
-            last[topic] = (topic_epoch, s)
-            self.stats.reordered += s < newest
-            newest = max(newest, s)
-            heapq.heappush(heap, (s, next(seq), rec))
-            ready = max(watermark(), newest - self.max_lag_s)
-            while heap and heap[0][0] <= ready:
-                last_out = heap[0][0]
-                yield heapq.heappop(heap)[2]
-        while heap:
-            yield heapq.heappop(heap)[2]
-
-
-def _ros_time(genpy, stamp_s: float):
-    """genpy.Time to the nearest nanosecond (``from_sec`` truncates: 2.4 s would read 2.399999999)."""
-    ns = int(round(stamp_s * 1e9))
-    return genpy.Time(ns // 1_000_000_000, ns % 1_000_000_000)
-
-
-def write_rosbag(path: Union[str, Path], records: Iterable[Record], scan_topic: str = "/scan",
-                 odom_topic: str = "/odom", imu_topic: str = "/imu", tags_topic: str = "/tags/detections",
-                 scan_frame: str = "base_scan", odom_frame: str = "odom",
-                 base_frame: str = "base_footprint", imu_frame: str = "imu_link") -> int:
-    """Write the records as ROS messages, header stamp = the record's stamp; returns the
-    messages written. The bag's time is the stamp too, but a microsecond after the previous
-    message's when the stamp is not later (a recorder's clock does not go back): the bag reads
-    back in the written order, and a stream whose stamps go back with a TimeJump. TimeJump records
-    are not written (the stamps show the jump)."""
-    rosbag, genpy, LaserScan, Odometry, Imu = _rosbag()
-    count, bag_t = 0, -math.inf
-    with rosbag.Bag(str(path), "w") as bag:
-        for rec in records:
-            if isinstance(rec, TimeJump):
-                continue
-            stamp = _ros_time(genpy, rec.stamp_s)
-            if isinstance(rec, LaserRecord):
-                topic, msg = scan_topic, LaserScan()
-                msg.header.frame_id = scan_frame
-                n = len(rec.ranges)
-                msg.angle_min, msg.angle_increment = rec.angle_min, rec.angle_increment
-                msg.angle_max = rec.angle_min + (n - 1) * rec.angle_increment
-                msg.range_min, msg.range_max = rec.range_min, rec.range_max
-                msg.ranges = np.asarray(rec.ranges, dtype=np.float32).tolist()
-            elif isinstance(rec, OdomRecord):
-                topic, msg = odom_topic, Odometry()
-                msg.header.frame_id, msg.child_frame_id = odom_frame, base_frame
-                msg.pose.pose.position.x, msg.pose.pose.position.y = rec.x, rec.y
-                o = msg.pose.pose.orientation
-                o.z, o.w = math.sin(0.5 * rec.yaw), math.cos(0.5 * rec.yaw)
-                msg.twist.twist.linear.x, msg.twist.twist.angular.z = rec.v, rec.w
-            elif isinstance(rec, ImuRecord):
-                topic, msg = imu_topic, Imu()
-                msg.header.frame_id = imu_frame
-                msg.orientation_covariance[0] = -1.0     # REP 145: no orientation estimate
-                msg.angular_velocity.z = rec.yaw_rate
-            elif isinstance(rec, TagRecord):
-                topic, msg = tags_topic, rec.msg
+    for stream, rec in records:
+        s = rec.stamp_s
+        stream_epoch, previous = last.get(stream, (epoch, -math.inf))
+        if s < previous - jump_back_s:               # this stream's time went back
+            if stream_epoch < epoch:                  # another stream's jump started the new run
+                stream_epoch = epoch
             else:
-                raise TypeError(f"write_rosbag: no message for {type(rec).__name__}")
-            if not isinstance(rec, TagRecord):
-                msg.header.stamp = stamp
-            bag_t = rec.stamp_s if rec.stamp_s > bag_t else bag_t + 1e-6   # keeps the written order
-            bag.write(topic, msg, t=_ros_time(genpy, bag_t))
-            count += 1
-    return count
-
-
-def read_log(path: Union[str, Path], **topics) -> Union[CarmenReader, BagReader]:
-    """A reader for ``path``: a rosbag by its ``.bag`` suffix, else a CARMEN log."""
-    return BagReader(path, **topics) if Path(path).suffix == ".bag" else CarmenReader(path)
+                while heap:
+                    yield heapq.heappop(heap)[2]
+                jump = TimeJump(s, newest)
+                stats.jumps.append(jump)
+                yield jump
+                epoch += 1
+                stream_epoch = epoch
+                newest, last_out = s, -math.inf
+            previous = -math.inf
+        elif stream_epoch < epoch:
+            stats.skip("before the jump", f"{type(rec).__name__} at {s:.3f} s",
+                       "recorded after the time jump, stamped before it")
+            continue
+        if s < previous or s < last_out:
+            stats.skip("late", f"{type(rec).__name__} at {s:.3f} s",
+                       f"{max(previous, last_out) - s:.3f} s older than one before it")
+            continue
+        last[stream] = (stream_epoch, s)
+        stats.reordered += s < newest
+        newest = max(newest, s)
+        heapq.heappush(heap, (s, next(seq), rec))
+        ready = max(watermark(), newest - max_lag_s)
+        while heap and heap[0][0] <= ready:
+            last_out = heap[0][0]
+            yield heapq.heappop(heap)[2]
+    while heap:
+        yield heapq.heappop(heap)[2]

@@ -1,6 +1,7 @@
-"""The SLAM pipeline over a recorded log (``make slam-log``): a rosbag or a CARMEN log in, the
-optimised keyframe trajectory, the odometry, the map and the graph out, as fast as the CPU
-allows.
+"""The SLAM pipeline over a recorded log (``make slam-log``): a log reader's records in (a
+CARMEN log's ``slam.logs.CarmenReader``, a rosbag's ``ros.bags.BagReader``: anything that yields
+the records of ``slam.logs`` and has ``path`` and ``summary()``), the optimised keyframe
+trajectory, the odometry, the map and the graph out, as fast as the CPU allows.
 
 Each scan needs the odometry pose at its stamp: a CARMEN laser line carries it; for a bag it is
 interpolated between the two /odom messages around the stamp (a scan outside them waits for
@@ -23,7 +24,7 @@ from ..evaluation.trajectory_metrics import write_tum
 from ..geometry import between, compose, transform_points, wrap_angle
 from ..mapping.grid import GridSettings, make_grid
 from ..mapping.map_io import load_map_as, save_map
-from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump, read_log
+from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump
 from .scan_matching import scan_points
 from .localization import LocalizationSettings, Localizer
 from .slam import Slam, SlamSettings
@@ -113,13 +114,12 @@ def _base_points(rec: LaserRecord, offset) -> np.ndarray:
     return transform_points(offset, pts)
 
 
-def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_separation_m: float = 0.16,
+def run_log(reader, output_dir, settings: SlamSettings = SlamSettings(), wheel_separation_m: float = 0.16,
             lidar_offset=(0.0, 0.0, 0.0), grid: GridSettings = GridSettings(), log=print) -> OfflineResult:
-    """SLAM over the log at ``path``; writes trajectory.tum, odometry.tum, map.pgm/.yaml and
-    graph.g2o into ``output_dir``."""
+    """SLAM over the records of ``reader``; writes trajectory.tum, odometry.tum, map.pgm/.yaml
+    and graph.g2o into ``output_dir``."""
     out = Path(output_dir)
     out.mkdir(parents=True, exist_ok=True)
-    reader = read_log(path)
     slam = Slam(settings, wheel_separation_m)
     scans: dict = {}                   # keyframe stamp -> (ranges, layout), for the map
     odometry_rows: list = []
@@ -139,7 +139,7 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
     wall = time.perf_counter() - t0
 
     if not slam.keyframes:
-        raise ValueError(f"{path}: no scan with odometry in the log ({reader.summary()})")
+        raise ValueError(f"{reader.path}: no scan with odometry in the log ({reader.summary()})")
     stamps = np.array([k.stamp_s for k in slam.keyframes])
     write_tum(out / "trajectory.tum", np.column_stack([stamps, slam.estimates]))
     write_tum(out / "odometry.tum", np.array(odometry_rows, float).reshape(-1, 4))
@@ -161,10 +161,10 @@ def run_log(path, output_dir, settings: SlamSettings = SlamSettings(), wheel_sep
                          resets=slam.counts["resets"], stats=slam.stats(), log_summary=reader.summary())
 
 
-def localize_log(path, map_file, output_dir, settings: LocalizationSettings = LocalizationSettings(),
+def localize_log(reader, map_file, output_dir, settings: LocalizationSettings = LocalizationSettings(),
                  wheel_separation_m: float = 0.16, lidar_offset=(0.0, 0.0, 0.0), initial_pose=(0.0, 0.0, 0.0),
                  log=print) -> OfflineResult:
-    """mode localization over the log at ``path``: tracks the robot in ``map_file`` (a
+    """mode localization over the records of ``reader``: tracks the robot in ``map_file`` (a
     map_server YAML) from ``initial_pose``; writes trajectory.tum (the pose at every match) and
     odometry.tum into ``output_dir``. ``stats`` holds the localiser's counts."""
     out = Path(output_dir)
@@ -172,7 +172,6 @@ def localize_log(path, map_file, output_dir, settings: LocalizationSettings = Lo
     occupancy, resolution, origin = load_map_as(map_file, "map")
     loc = Localizer(settings, occupancy, resolution, origin, wheel_separation_m)
     loc.set_pose(initial_pose)
-    reader = read_log(path)
     matched, odometry_rows = [], []
     t0 = time.perf_counter()
 
@@ -184,7 +183,7 @@ def localize_log(path, map_file, output_dir, settings: LocalizationSettings = Lo
     dropped, first, last = _feed(reader, lidar_offset, use, lambda *_: None, loc.reset, log, loc.take_events)
     wall = time.perf_counter() - t0
     if not matched:
-        raise ValueError(f"{path}: no scan with odometry in the log ({reader.summary()})")
+        raise ValueError(f"{reader.path}: no scan with odometry in the log ({reader.summary()})")
     write_tum(out / "trajectory.tum", np.array(matched, float))
     write_tum(out / "odometry.tum", np.array(odometry_rows, float).reshape(-1, 4))
     return OfflineResult(keyframes=len(matched), scans=len(odometry_rows), scans_dropped=dropped,
