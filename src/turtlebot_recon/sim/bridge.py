@@ -1,0 +1,77 @@
+"""What the sim_bridge node decides, apart from ROS: how fast the simulation runs against the
+wall clock, when at rtf 0 it waits for the controller's next command, the robot's outline for
+rviz and the true path relative to the start pose. The node supplies the clocks and the waiting."""
+from __future__ import annotations
+
+import math
+
+from ..geometry import wrap_angle
+from ..robot import RobotSpec
+
+FAR_BEHIND_S = 1.0   # wall s: a pacer this far behind (a slow machine) starts afresh
+
+
+class Pacer:
+    """Holds sim time to ``rtf`` times wall time (rtf 0: as fast as possible, never sleeps).
+    Far behind, it does not sprint to catch up: it counts again from where it is."""
+
+    def __init__(self, rtf: float, sim_s: float, wall_s: float):
+        self.rtf = rtf
+        self._sim0, self._wall0 = sim_s, wall_s
+
+    def sleep_s(self, sim_s: float, wall_s: float) -> float:
+        """Wall seconds to sleep so that sim time ``sim_s`` is reached no sooner than rtf allows."""
+        if self.rtf <= 0:
+            return 0.0
+        ahead = (sim_s - self._sim0) / self.rtf - (wall_s - self._wall0)
+        if ahead < -FAR_BEHIND_S:
+            self._sim0, self._wall0 = sim_s, wall_s
+        return max(ahead, 0.0)
+
+
+class CommandSync:
+    """rtf 0: the simulation outruns a controller starved of CPU, and the base would drive on
+    its last command for up to cmd_timeout_s. While the base moves, once the last command is
+    ``age_s`` old (sim time), the bridge waits for the next one (at most ``wait_s`` of wall
+    time; after a wait runs out, not again until a command comes)."""
+
+    def __init__(self, rtf: float, age_s: float, wait_s: float):
+        self.on = rtf <= 0 and age_s > 0
+        self.age_s, self.wait_s = age_s, wait_s
+        self._last_s = 0.0          # sim time of the last applied command
+        self._waits = True
+
+    def applied(self, now_s: float) -> None:
+        self._last_s, self._waits = now_s, True
+
+    def gave_up(self) -> None:
+        """A wait ran out: the publisher may have stopped, so no more waits until a command comes."""
+        self._waits = False
+
+    def wait_for_s(self, now_s: float, v_mps: float, w_radps: float) -> float:
+        """Wall seconds to wait for the next command before this step (0: step now)."""
+        moving = abs(v_mps) >= 1e-6 or abs(w_radps) >= 1e-6
+        if not (self.on and self._waits and moving) or now_s - self._last_s < self.age_s:
+            return 0.0
+        return self.wait_s
+
+
+def footprint_outline(robot: RobotSpec, points: int = 24) -> list[tuple[float, float]]:
+    """The robot's outline in base_footprint (m): a round body as ``points`` points on its
+    circle, a box as its four corners (counter-clockwise from the front left)."""
+    if robot.is_round:
+        return [(robot.radius_m * math.cos(a), robot.radius_m * math.sin(a))
+                for a in (2 * math.pi * k / points for k in range(points))]
+    x0 = robot.footprint_offset_x_m
+    hx, hy = 0.5 * robot.footprint_length_m, 0.5 * robot.footprint_width_m
+    return [(x0 + hx, hy), (x0 - hx, hy), (x0 - hx, -hy), (x0 + hx, -hy)]
+
+
+def relative_to_start(start: tuple[float, float, float],
+                      pose: tuple[float, float, float]) -> tuple[float, float, float]:
+    """A world pose (x m, y m, yaw rad) in the frame of the start pose: the odom frame of
+    exact odometry, where rviz draws the true path."""
+    sx, sy, syaw = start
+    x, y, yaw = pose
+    c, s = math.cos(syaw), math.sin(syaw)
+    return c * (x - sx) + s * (y - sy), -s * (x - sx) + c * (y - sy), wrap_angle(yaw - syaw)

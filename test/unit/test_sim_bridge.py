@@ -1,0 +1,58 @@
+"""sim_bridge's ROS-free policy (sim/bridge.py): pacing to the rtf, rtf 0's wait for the next
+command, the footprint outline and the true path relative to the start."""
+import math
+
+import pytest
+
+from turtlebot_recon.robot import load_robot
+from turtlebot_recon.sim.bridge import CommandSync, Pacer, footprint_outline, relative_to_start
+
+
+def test_pacer_holds_sim_time_to_rtf_times_wall_time():
+    p = Pacer(rtf=2.0, sim_s=10.0, wall_s=100.0)
+    # 1 sim s at rtf 2 takes 0.5 wall s; 0.2 s have passed: sleep 0.3 s
+    assert p.sleep_s(11.0, 100.2) == pytest.approx(0.3)
+    assert p.sleep_s(11.0, 100.6) == 0.0          # behind: no sleep
+    # 2.5 wall s behind (> 1 s): it starts afresh from here instead of sprinting
+    assert p.sleep_s(12.0, 103.5) == 0.0
+    assert p.sleep_s(12.5, 103.5) == pytest.approx(0.25)
+
+
+def test_pacer_at_rtf_0_never_sleeps():
+    p = Pacer(rtf=0.0, sim_s=0.0, wall_s=0.0)
+    assert p.sleep_s(1000.0, 0.001) == 0.0
+
+
+def test_command_sync_waits_only_at_rtf_0_while_moving_on_an_old_command():
+    sync = CommandSync(rtf=0.0, age_s=0.11, wait_s=1.0)
+    sync.applied(5.0)
+    assert sync.wait_for_s(5.10, 0.2, 0.0) == 0.0     # the command is 0.10 s old: drive on
+    assert sync.wait_for_s(5.11, 0.2, 0.0) == 1.0     # 0.11 s old: wait up to 1 wall s
+    assert sync.wait_for_s(5.5, 0.0, 0.3) == 1.0      # turning in place counts as moving
+    assert sync.wait_for_s(5.5, 0.0, 0.0) == 0.0      # standing still: nothing to wait for
+    sync.gave_up()                                    # the wait ran out: the publisher stopped
+    assert sync.wait_for_s(6.0, 0.2, 0.0) == 0.0
+    sync.applied(6.0)                                 # a command came: waits again
+    assert sync.wait_for_s(6.2, 0.2, 0.0) == 1.0
+    assert CommandSync(rtf=1.0, age_s=0.11, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
+    assert CommandSync(rtf=0.0, age_s=0.0, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
+
+
+def test_footprint_outline_round_and_box():
+    burger = load_robot("turtlebot3_burger")
+    circle = footprint_outline(burger)
+    assert len(circle) == 24
+    assert all(math.hypot(x, y) == pytest.approx(burger.radius_m) for x, y in circle)
+    waffle = load_robot("turtlebot3_waffle_pi")
+    box = footprint_outline(waffle)
+    # 0.281 x 0.306 m centred 0.064 m behind the axle: x in [-0.2045, 0.0765], y in [-0.153, 0.153]
+    expected = [(0.0765, 0.153), (-0.2045, 0.153), (-0.2045, -0.153), (0.0765, -0.153)]
+    assert [c for p in box for c in p] == pytest.approx([c for p in expected for c in p])
+
+
+def test_relative_to_start():
+    # start at (1, 2) facing +y: a pose 1 m further along +y is 1 m ahead, facing the same way
+    assert relative_to_start((1.0, 2.0, math.pi / 2), (1.0, 3.0, math.pi / 2)) == pytest.approx((1.0, 0.0, 0.0))
+    # a point at +x of the start is on the robot's right (-y), heading wrapped to (-pi, pi]
+    x, y, yaw = relative_to_start((1.0, 2.0, math.pi / 2), (2.0, 2.0, -math.pi))
+    assert (x, y) == pytest.approx((0.0, -1.0)) and yaw == pytest.approx(math.pi / 2)
