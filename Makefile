@@ -9,28 +9,29 @@ APT_STAMP  := build/.apt-stamp
 VENV_STAMP := $(VENV)/.stamp
 ENV    := source $(TOP)/tools/env.sh &&
 
-# Options for run / sim (also launch arguments).
-WORLD    ?= house
-ROBOT    ?= turtlebot3_waffle_pi
-STRATEGY ?= recon
-CONTROLLER ?= tube_mppi
-MISSION  ?= auto
-SLAM     ?= false
-RTF      ?= 0
-SEED     ?= 0
-BUDGET   ?= 1800
-DURATION ?= 120
-RVIZ     ?= false
+# Options for run / wander / sim: WORLD ROBOT STRATEGY CONTROLLER MISSION SLAM RTF SEED BUDGET
+# DURATION RVIZ SAVED_MAP are the launch files' arguments, passed only when the user sets them
+# (make VAR=value, or the environment): their defaults live in the launch files and config/*.yaml.
+# on purpose: make's own run directory, inside the checkout (the launch files' is under ROS_HOME)
 OUTPUT   ?= output/run
+# name:=$(VAR) when the user set VAR, else nothing: $(call arg,VAR,name)
+arg = $(if $(filter command line environment,$(origin $(1))),$(2):=$($(1)))
+RUN_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,STRATEGY,strategy) \
+  $(call arg,CONTROLLER,controller) $(call arg,MISSION,mission) $(call arg,SLAM,slam) $(call arg,RTF,rtf) \
+  $(call arg,SEED,seed) $(call arg,BUDGET,budget) $(call arg,RVIZ,rviz))
+WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,RTF,rtf) $(call arg,SEED,seed) \
+  $(call arg,DURATION,duration) $(call arg,RVIZ,rviz))
 
 .PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
-	@echo "make run         explore WORLD=$(WORLD) headless; map, plots and report in OUTPUT=$(OUTPUT)"
-	@echo "                 (ROBOT=$(ROBOT) STRATEGY=$(STRATEGY) CONTROLLER=$(CONTROLLER): pure_pursuit | dwa | pd | mppi | tube_mppi)"
-	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration)"
-	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel)"
+	@echo "make run         explore a world headless; map, plots and report in OUTPUT=$(OUTPUT)"
+	@echo "                 (WORLD ROBOT STRATEGY CONTROLLER MISSION SLAM RTF SEED BUDGET RVIZ SAVED_MAP: the arguments"
+	@echo "                 of launch/explore_sim.launch, which names the choices; unset: its and config/*.yaml's defaults)"
+	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration; WORLD ROBOT RTF SEED"
+	@echo "                 DURATION RVIZ: launch/run_sim.launch's arguments)"
+	@echo "make sim         the simulator with rviz, for interactive use (drive it with /cmd_vel; WORLD ROBOT SEED)"
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
 	@echo "                 (MAP=map.yaml [INITIAL_POSE='x y yaw']: track the log in that saved map instead)"
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
@@ -44,8 +45,8 @@ help:
 	@echo "                 simulator, drifting odometry + localisation -> output/bench/nav.json (POSE=truth, PAIRS=N)"
 	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
 	@echo "                 output/bench/explore/; held-out worlds (garden, doors) reported apart (heldout_*)"
-	@echo "                 (QUICK=1 recon and oracle, 1 seed, 4 worlds; STRATEGIES=recon,nearest WORLDS=house SEEDS=3"
-	@echo "                 JOBS=cores/2 ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
+	@echo "                 (QUICK=1 its small subset; STRATEGIES=recon,nearest WORLDS=house SEEDS=N"
+	@echo "                 JOBS=N ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
 	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead,"
 	@echo "                 LAUNCH_ARGS='controller:=tube_mppi slam:=true' more explore_sim.launch arguments for every run)"
@@ -84,19 +85,17 @@ test: build
 	$(ENV) python -m pytest test -q -p no:cacheprovider
 
 run: build
-	@echo "[run] exploring '$(WORLD)' with $(ROBOT), strategy $(STRATEGY), controller $(CONTROLLER), mission $(MISSION), slam $(SLAM), headless; output in $(OUTPUT)"
+	@echo "[run] exploring headless: explore_sim.launch $(or $(RUN_ARGS),with its defaults); output in $(OUTPUT)"
 	@$(ENV) tools/launch --tag run --done evaluator --report $(abspath $(OUTPUT))/report.json explore_sim.launch \
-	  world:=$(WORLD) robot:=$(ROBOT) strategy:=$(STRATEGY) controller:=$(CONTROLLER) mission:=$(MISSION) slam:=$(SLAM) rtf:=$(RTF) seed:=$(SEED) \
-	  budget:=$(BUDGET) rviz:=$(RVIZ) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false \
+	  $(RUN_ARGS) output:=$(abspath $(OUTPUT)) end_with_evaluator:=false \
 	  $(if $(SAVED_MAP),saved_map:=$(abspath $(SAVED_MAP)))
 
 wander: build
 	@$(ENV) tools/launch --tag wander --done scripted_drive --report $(abspath $(OUTPUT))/report.json run_sim.launch \
-	  world:=$(WORLD) robot:=$(ROBOT) rtf:=$(RTF) seed:=$(SEED) duration:=$(DURATION) rviz:=$(RVIZ) \
-	  output:=$(abspath $(OUTPUT)) end_with_driver:=false
+	  $(WANDER_ARGS) output:=$(abspath $(OUTPUT)) end_with_driver:=false
 
 sim: build
-	@$(ENV) tools/launch --tag sim sim.launch world:=$(WORLD) robot:=$(ROBOT) rtf:=1 seed:=$(SEED) rviz:=true
+	@$(ENV) tools/launch --tag sim sim.launch $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,SEED,seed) rviz:=true
 
 bench-sim: build
 	$(ENV) python test/benchmarks/bench_sim.py
@@ -143,7 +142,7 @@ bench-explore: build
 
 slam-log: build
 	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }
-	@$(ENV) python tools/slam_log.py --log $(LOG) --output $(OUTPUT) --robot $(ROBOT) \
+	@$(ENV) python tools/slam_log.py --log $(LOG) --output $(OUTPUT) $(if $(ROBOT),--robot $(ROBOT)) \
 	  $(if $(MAP),--map $(MAP)) $(if $(INITIAL_POSE),--initial-pose $(INITIAL_POSE))
 
 slam-eval: setup

@@ -61,6 +61,9 @@ BLOCKS = {
 }
 OWN_FILE = {LatticeSettings: "lattice.yaml", DwaSettings: "dwa.yaml", PdSettings: "pd.yaml",
             MppiSettings: "mppi.yaml", TubeMppiSettings: "tube_mppi.yaml"}
+# Chosen per run, so never defaulted by a node: the launch files set them, and the top-level
+# launch files hold their one default (test_defaults.py checks those).
+SET_BY_LAUNCH = {"robot", "world"}
 # Keys that choose rather than set: (file, key path) -> (the choices, the default).
 SELECTORS = {("explorer.yaml", ("strategy",)): (set(STRATEGIES), DEFAULT_STRATEGY)}
 
@@ -83,7 +86,8 @@ def _is_or_holds_a_row(name: str, path: tuple) -> bool:
 def _assert_keys_are_fields(cls, block: dict, where: str) -> None:
     """The block's keys are exactly the class's fields, and likewise in nested dataclass fields."""
     hints = typing.get_type_hints(cls)
-    assert set(block) == {f.name for f in dataclasses.fields(cls) if hints[f.name] not in OWN_FILE}, where
+    assert set(block) == {f.name for f in dataclasses.fields(cls)
+                          if hints[f.name] not in OWN_FILE and f.name not in SET_BY_LAUNCH}, where
     for f in dataclasses.fields(cls):
         if dataclasses.is_dataclass(hints[f.name]) and hints[f.name] not in OWN_FILE:
             _assert_keys_are_fields(hints[f.name], block[f.name], f"{where}/{f.name}")
@@ -99,6 +103,16 @@ def test_yaml_block_declares_every_setting_once_with_its_default(name, path):
     own = {k: v for k, v in _block(name, path).items() if not _is_or_holds_a_row(name, (*path, k))}
     _assert_keys_are_fields(cls, own, where)
     assert from_dict(cls, own, where) == cls()      # YAML = defaults
+
+
+@pytest.mark.parametrize("name, path", _params(BLOCKS))
+def test_robot_and_world_have_no_default_in_a_node(name, path):
+    # "" is no robot: load_robot("") fails loudly, so a node started without ~robot stops
+    cls = BLOCKS[name, path]
+    for field in dataclasses.fields(cls):
+        if field.name in SET_BY_LAUNCH:
+            assert field.default == "", f"{cls.__name__}.{field.name}"
+            assert field.name not in _block(name, path), f"{name}: {field.name}"
 
 
 @pytest.mark.parametrize("name, path", _params(SELECTORS))

@@ -34,8 +34,10 @@ RUN_FILES = ("coverage.csv", "path.csv", "ground_truth.tum", "coverage.png", "ma
 @dataclass(frozen=True)
 class EvaluatorSettings:
     """config/evaluator.yaml."""
-    world: str = "house"                 # a name in worlds/ or a world YAML path (as sim_bridge's)
-    robot: str = "turtlebot3_waffle_pi"  # F uses its radius_m and lidar range
+    world: str = ""                  # a name in worlds/ or a world YAML; no default: the launch
+                                         # files set it (their top-level files hold its one default)
+    robot: str = ""                  # F uses its radius_m and lidar range; no default: the launch
+                                         # files set it (their top-level files hold its one default)
     output_dir: str = ""                 # run directory; '' = $ROS_HOME/explore_run
     map_frame: str = "odom"
     odom_frame: str = "odom"             # with SLAM (map_frame map) the odometry's ATE is reported too

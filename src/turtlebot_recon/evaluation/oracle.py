@@ -68,8 +68,10 @@ class OracleSettings:
 @dataclass(frozen=True)
 class OracleDriverSettings:
     """config/oracle.yaml: scripts/oracle_driver, which drives the oracle's routes."""
-    world: str = "house"                 # a name in worlds/ or a world YAML path (as sim_bridge's)
-    robot: str = "turtlebot3_waffle_pi"  # costmap footprint, F's radius and lidar range
+    world: str = ""                  # a name in worlds/ or a world YAML; no default: the launch
+                                         # files set it (their top-level files hold its one default)
+    robot: str = ""                  # costmap footprint, F's radius and lidar range; no default: the launch
+                                         # files set it (their top-level files hold its one default)
     map_frame: str = "odom"              # goals go out in this frame (the start pose is its origin)
     route: OracleSettings = field(default_factory=OracleSettings)
     lattice: LatticeSettings = field(default_factory=LatticeSettings)   # config/lattice.yaml

@@ -83,7 +83,8 @@ SEARCH_AFTER_CYCLES = 2      # mission tags: the tag search starts after this ma
 @dataclass(frozen=True)
 class ExplorerSettings:
     """The node's own keys of config/explorer.yaml."""
-    robot: str = "turtlebot3_waffle_pi"  # footprint -> costmap (the navigator's inflation)
+    robot: str = ""                  # footprint -> costmap; no default: the launch
+                                         # files set it (their top-level files hold its one default)
     map_frame: str = "odom"              # odom until SLAM provides map -> odom
     base_frame: str = "base_footprint"
     cycle_period_s: float = 1.0          # explorer cycle (sim time); also right after a goal ends
@@ -101,7 +102,7 @@ class ExplorerSettings:
                                          # with the body against the map; unsafe: not driven
     status_period_wall_s: float = 5.0    # terminal progress line (wall time: readable at any rtf)
     shutdown_when_done: bool = False     # end the node once the supervisor says DONE
-    mission: str = "map"                 # map: lidar coverage | tags: then the tag search |
+    mission: str = "auto"                # map: lidar coverage | tags: then the tag search |
                                          # auto: tags for a robot with a camera
 
     def validate(self, src: str) -> None:

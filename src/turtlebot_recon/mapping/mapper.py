@@ -32,7 +32,8 @@ class MapperSettings:
     """mapper node parameters (config/mapper.yaml)."""
     map_frame: str = "odom"              # the frame the map is built in (odom until SLAM exists)
     base_frame: str = "base_footprint"
-    robot: str = "turtlebot3_waffle_pi"  # for the bumper geometry (config/robots/)
+    robot: str = ""                  # for the bumper geometry (config/robots/); no default: the launch
+                                         # files set it (their top-level files hold its one default)
     publish_rate_hz: float = 1.0         # /map and /visit_map
     tf_timeout_s: float = 0.2            # wait this long for the scan's transform
     map_file: str = ""                   # base path of the PGM/YAML pair ('' = ~/.ros/map)

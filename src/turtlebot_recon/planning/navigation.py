@@ -25,7 +25,9 @@ import numpy as np
 from .. import _native, geometry
 from ..config import positive, require
 from ..control import (BLOCKED, CONTROLLERS, DEFAULT_CONTROLLER, NO_PATH, BodyCheck, ControlInput,
-                       DwaSettings, FollowerSettings, MppiSettings, PdSettings, TubeMppiSettings, make_controller)
+                       DwaSettings, FollowerSettings, MppiSettings, PdSettings, TrackingSettings,
+                       TubeMppiSettings, make_controller)
+from ..control.tracking import PathTracker
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
@@ -35,7 +37,8 @@ from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, 
 @dataclass(frozen=True)
 class NavigationSettings:
     """navigator parameters (config/navigator.yaml)."""
-    robot: str = "turtlebot3_waffle_pi"  # footprint, limits (config/robots/)
+    robot: str = ""                  # footprint, limits (config/robots/); no default: the launch
+                                         # files set it (their top-level files hold its one default)
     base_frame: str = "base_footprint"
     controller_rate_hz: float = 10.0     # control loop (sim time)
     replan_period_s: float = 2.0         # replan at least this often while following
@@ -49,9 +52,12 @@ class NavigationSettings:
                                          # pure pursuit drives the plan this far (m), then hands
                                          # back; 0: never (the blocked report stands)
     lattice: LatticeSettings = field(default_factory=LatticeSettings)
+    # What every controller shares (progress along the path, the goal tolerances, turning in
+    # place); the navigator's own manoeuvres use its goal tolerance and turn rates too.
+    tracking: TrackingSettings = field(default_factory=TrackingSettings)
     # One block per controller (the launch files load config/<name>.yaml into ~<name>); the
-    # pure pursuit's is ``follower``, whose collision_margin_m, xy_goal_tolerance_m and rotate
-    # speeds the navigator's own manoeuvres use whichever controller drives.
+    # pure pursuit's is ``follower``, whose collision_margin_m the navigator's own manoeuvres
+    # use whichever controller drives.
     follower: FollowerSettings = field(default_factory=FollowerSettings)
     dwa: DwaSettings = field(default_factory=DwaSettings)
     pd: PdSettings = field(default_factory=PdSettings)
@@ -122,17 +128,19 @@ class Navigation:
         self._disc = replace(robot, footprint_length_m=0.0, footprint_width_m=0.0,
                              footprint_offset_x_m=0.0)
         self._disc_settings = replace(self.lattice, margin_m=max(self.lattice.turn_margin_m, 1e-6))
-        self.controller = make_controller(settings.controller, settings.controller_settings(), robot)
+        self.controller = make_controller(settings.controller, settings.controller_settings(), robot,
+                                          settings.tracking)
         # The lattice plan's own follower, for where a sampling controller finds no free way:
         # the plan's poses fit the body by construction, and the pure pursuit follows them
         # exactly (stopping on tight corners to turn in place), where the weighted mean of
         # samples drawn round a wall's end may not (Nav2 answers the same with recoveries).
         self.takeover = None if settings.controller == "pure_pursuit" or settings.takeover_m <= 0 \
-            else make_controller("pure_pursuit", settings.follower, robot)
+            else make_controller("pure_pursuit", settings.follower, robot, settings.tracking)
         self._taken_at: Optional[np.ndarray] = None   # (x, y) where the takeover began
         self.takeovers = 0                             # how many this navigator has had
         self.takeover_detail = ""                      # why the last one (the blocked detail)
         self.body = BodyCheck(robot, settings.follower.collision_margin_m)
+        self._turn = PathTracker(settings.tracking, robot, self.body)   # its turn-in-place law
         self.backing: Optional[np.ndarray] = None     # (x, y, yaw): turn to yaw, back to (x, y)
         self.approach: Optional[np.ndarray] = None    # (x, y): drive straight on to it first
         self.arc: Optional[EscapeArc] = None          # an escape arc being driven
@@ -391,7 +399,7 @@ class Navigation:
             return self._finish("failed", f"no cell within {self.s.snap_radius_m} m of the robot at "
                                           f"{where} where its footprint fits")
         gx, gy, gyaw = self.goal
-        if math.hypot(gx - pose[0], gy - pose[1]) <= self.s.follower.xy_goal_tolerance_m:
+        if math.hypot(gx - pose[0], gy - pose[1]) <= self.s.tracking.xy_goal_tolerance_m:
             # there already (a manoeuvre may end at the goal, a lattice line beside its cell):
             # the follower only turns to the goal's yaw
             self._clear_path()
@@ -501,9 +509,7 @@ class Navigation:
                 self._finish("failed", f"trapped at ({x:.2f}, {y:.2f}): turning to back out "
                                        f"would hit an obstacle")
                 return 0.0, 0.0
-            f = self.s.follower
-            top = min(f.rotate_speed_max_radps, self.robot.max_angular_radps)
-            return 0.0, math.copysign(min(top, max(f.rotate_speed_min_radps, f.rotate_gain_per_s * abs(err))), err)
+            return 0.0, self._turn.turn_rate(err)
         to_go = -((bx - x) * math.cos(yaw) + (by - y) * math.sin(yaw))
         if to_go <= 0.01:
             self.backing, self._need_plan, self._reversing = None, True, False
@@ -578,3 +584,20 @@ class Navigation:
         self._taken_at = None
         self._clear_path()
         return False
+
+
+def loop_summary(times_s: np.ndarray, step_ms: np.ndarray) -> Optional[str]:
+    """One line on a control loop from its steps while driving (sim time s of each, wall ms it
+    took): the rate it held in sim time (one over the mean period between steps: a sim-time
+    timer wakes on /clock's ticks, so a 0.05 s period comes as 0.04 and 0.06 s, and the median
+    alone would read 16.7 Hz), the period's median and p95, and a step's wall time. None
+    without two steps less than 1 s apart (the pauses between goals do not count)."""
+    if len(times_s) < 2:
+        return None
+    period = np.diff(times_s)
+    period = period[(period > 0) & (period < 1.0)]
+    if not len(period):
+        return None
+    return (f"control loop over {len(times_s)} steps: {1.0 / np.mean(period):.1f} Hz in sim time (period median "
+            f"{np.median(period):.3f} s, p95 {np.percentile(period, 95):.3f} s); step wall time median "
+            f"{np.median(step_ms):.1f} ms, p95 {np.percentile(step_ms, 95):.1f} ms, max {np.max(step_ms):.1f} ms")

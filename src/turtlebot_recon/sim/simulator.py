@@ -49,9 +49,11 @@ FLOOR_RGBA = (0.45, 0.45, 0.47, 1.0)
 @dataclass(frozen=True)
 class SimSettings:
     """Simulator bridge parameters (config/sim_bridge.yaml)."""
-    world: str = "house"                 # a name in worlds/ or a path to a world YAML
-    robot: str = "turtlebot3_waffle_pi"  # a name in config/robots/ or a path
-    rtf: float = 1.0                     # target real-time factor; 0 = as fast as the CPU allows
+    world: str = ""                  # a name in worlds/ or a path to a world YAML; no default: the launch
+                                         # files set it (their top-level files hold its one default)
+    robot: str = ""                  # a name in config/robots/ or a path; no default: the launch
+                                         # files set it (their top-level files hold its one default)
+    rtf: float = 0.0                     # target real-time factor; 0 = as fast as the CPU allows
     physics_hz: float = 100.0
     cmd_timeout_s: float = 0.5           # stop when no /cmd_vel arrives for this long
     cmd_sync_age_s: float = 0.11         # rtf 0 only: while the base moves, wait for a new /cmd_vel

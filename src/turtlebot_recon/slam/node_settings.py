@@ -15,7 +15,8 @@ class SlamNodeSettings:
     map_frame: str = "map"
     odom_frame: str = "odom"
     base_frame: str = "base_footprint"
-    robot: str = "turtlebot3_waffle_pi"   # wheel separation for the odometry noise model
+    robot: str = ""                  # wheel separation for the odometry noise model; no default: the launch
+                                         # files set it (their top-level files hold its one default)
     tf_rate_hz: float = 20.0              # map -> odom, from its own timer
     transform_tolerance_s: float = 0.1    # map -> odom stamped this far ahead (slam_gmapping's)
     tf_timeout_s: float = 0.1             # wait this long for odometry at a scan's stamp
