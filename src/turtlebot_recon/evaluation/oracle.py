@@ -135,8 +135,9 @@ class Oracle:
         ``_SNAP_CELLS`` (a robot grazing the inscribed band); None if there is none."""
         r, c = self.world.cell(x, y)
         rows, cols = self.costmap.shape
-        r0, r1 = max(0, r - _SNAP_CELLS), min(rows, r + _SNAP_CELLS + 1)
-        c0, c1 = max(0, c - _SNAP_CELLS), min(cols, c + _SNAP_CELLS + 1)
+        # clipped to the grid at both ends: a negative end would index from the far side
+        r0, r1 = max(0, r - _SNAP_CELLS), max(0, min(rows, r + _SNAP_CELLS + 1))
+        c0, c1 = max(0, c - _SNAP_CELLS), max(0, min(cols, c + _SNAP_CELLS + 1))
         rr, cc = np.nonzero(self.costmap[r0:r1, c0:c1] < 253)
         if rr.size == 0:
             return None
