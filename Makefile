@@ -49,7 +49,7 @@ help:
 	@echo "                 JOBS=N ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
 	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead,"
-	@echo "                 LAUNCH_ARGS='controller:=tube_mppi slam:=true' more explore_sim.launch arguments for every run)"
+	@echo "                 LAUNCH_ARGS='controller:=dwa slam:=true' more explore_sim.launch arguments for every run)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
