@@ -73,7 +73,8 @@ from .goals import GoalBook, stands_for
 from .tag_search import TagSearch, View
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
-INFO, WARNING = logging.INFO, logging.WARNING
+DEBUG, INFO = logging.DEBUG, logging.INFO          # INFO: the start, the tag search, the end;
+                                                   # DEBUG: each event (off the console)
 BODY_CHECK_STEP_S = 0.05                           # a recovery twist's poses checked this often
 MISSIONS = ("map", "tags", "auto")
 SEARCH_AFTER_CYCLES = 2      # mission tags: the tag search starts after this many cycles in a row
@@ -323,7 +324,7 @@ class Explorer:
         self._apply(cmd, inp.now_s, inp.pose)
         if self.supervisor.state != self.state:
             self.state = out.state = self.supervisor.state
-            self._log(INFO, "explorer: state %s (%s)", self.state, cmd.reason)
+            self._log(DEBUG, "explorer: state %s (%s)", self.state, cmd.reason)
         return out
 
     def free_space(self, x: float, y: float) -> bool:
@@ -351,19 +352,19 @@ class Explorer:
                 continue
             if event.status == "succeeded" and self.view is not None and sent.xy == self.view.xy:
                 self.search.reached(self.view)
-                self._log(INFO, "explorer: tag search: view (%.2f, %.2f) reached", *sent.xy)
+                self._log(DEBUG, "explorer: tag search: view (%.2f, %.2f) reached", *sent.xy)
                 self.view = None
                 self.cycle_now = True
                 continue
             if event.status == "succeeded":
                 expired = self.book.succeeded(sent.xy, now)
                 self._arrived = sent.xy
-                self._log(INFO, "explorer: goal (%.2f, %.2f) reached%s", *sent.xy,
+                self._log(DEBUG, "explorer: goal (%.2f, %.2f) reached%s", *sent.xy,
                           f"; {expired} blacklist entries nearby expired" if expired else "")
                 self.cycle_now = True
             elif failed:
                 blacklisted = self.book.failed(sent.xy, now)
-                self._log(WARNING, "explorer: goal (%.2f, %.2f) failed (%s)%s", *sent.xy,
+                self._log(DEBUG, "explorer: goal (%.2f, %.2f) failed (%s)%s", *sent.xy,
                           event.text or "no reason given", "; blacklisted" if blacklisted else "")
                 self.cycle_now = True
 
@@ -380,7 +381,7 @@ class Explorer:
             ok = self.supervisor.state == "RETURN_HOME" and self.free_space(*sent.xy)
         if not ok:
             return False
-        self._log_throttled(5.0, now, WARNING, "explorer: the navigator gave up on (%.2f, %.2f) (%s), "
+        self._log_throttled(5.0, now, DEBUG, "explorer: the navigator gave up on (%.2f, %.2f) (%s), "
                             "which is still reachable: sent again (%d in a row)", *sent.xy, text,
                             sent.retries + 1)
         self._send(sent.kind, sent.xy, sent.yaw, pose, retries=sent.retries + 1)
@@ -433,10 +434,10 @@ class Explorer:
             view = self._tag_view(ctx, unconfirmed, now)
         self.goal_available = self.choice is not None or view is not None  # the supervisor's finish rule
         if not frontiers:
-            self._log_throttled(10.0, now, INFO, "explorer: no frontier in the map (%d known cells)",
+            self._log_throttled(10.0, now, DEBUG, "explorer: no frontier in the map (%d known cells)",
                                 int((occ >= 0).sum()))
         elif self.choice is None:
-            self._log_throttled(10.0, now, INFO, "explorer: %d frontiers, %d seen from a reachable "
+            self._log_throttled(10.0, now, DEBUG, "explorer: %d frontiers, %d seen from a reachable "
                                 "viewpoint, none usable (blacklisted or too close to obstacles)",
                                 len(frontiers), sum(f.reachable for f in frontiers))
         if self.mode == "explore":
@@ -462,7 +463,7 @@ class Explorer:
             self._out.camera_coverage = Grid(search.coverage.to_occupancy_grid_data(search.region),
                                              ctx.resolution, ctx.origin)
         if view is None:
-            self._log_throttled(10.0, now, INFO, "explorer: tag search: nothing left to look at (%.1f %% "
+            self._log_throttled(10.0, now, DEBUG, "explorer: tag search: nothing left to look at (%.1f %% "
                                 "of the walls seen, %d unconfirmed tags)", 100.0 * (search.seen_share or 0.0),
                                 len(unconfirmed))
         return view
@@ -475,7 +476,7 @@ class Explorer:
             return
         self.book.active = None
         self.view = view
-        self._log(INFO, "explorer: tag search: view (%.2f, %.2f) facing %.0f deg: %s (walls seen %.1f %%)",
+        self._log(DEBUG, "explorer: tag search: view (%.2f, %.2f) facing %.0f deg: %s (walls seen %.1f %%)",
                   *view.xy, math.degrees(view.yaw), view.label, 100.0 * (self.search.seen_share or 0.0))
         self._send("explore", view.xy, view.yaw, pose)
 
@@ -500,7 +501,7 @@ class Explorer:
         reason = self.book.reevaluate_reason(active, frontiers, ctx)
         if reason is not None:
             blacklisted = reason == "blocked" and self.book.obstructed(active.goal, now, ctx.resolution)
-            self._log(INFO, "explorer: goal (%.2f, %.2f) dropped: %s%s", *active.goal, reason,
+            self._log(DEBUG, "explorer: goal (%.2f, %.2f) dropped: %s%s", *active.goal, reason,
                       "; blacklisted" if blacklisted else "")
             self.book.active = None
             return
@@ -511,7 +512,7 @@ class Explorer:
             self.book.failed(active.goal, now)
             if not self.book.is_blacklisted(active.goal):
                 self.book.blacklist(active.goal, now)
-            self._log(WARNING, "explorer: no progress toward (%.2f, %.2f) for %.0f s: blacklisted",
+            self._log(DEBUG, "explorer: no progress toward (%.2f, %.2f) for %.0f s: blacklisted",
                       *active.goal, self.book.settings.progress_timeout_s)
 
     def _pursue(self, ctx: Context, pose: tuple) -> None:
@@ -529,7 +530,7 @@ class Explorer:
                 self._send("explore", active.goal, None, pose)
             return
         if active is not None:
-            self._log(INFO, "explorer: goal (%.2f, %.2f) replaced by (%.2f, %.2f)", *active.goal,
+            self._log(DEBUG, "explorer: goal (%.2f, %.2f) replaced by (%.2f, %.2f)", *active.goal,
                       *choice.goal)
         self.book.start(choice, ctx)
         if driving and stands_for(sent.xy, choice.goal, self.s.same_goal_m, ctx):
@@ -546,7 +547,7 @@ class Explorer:
             active, radius_m = self.book.active, self.book.settings.blacklist_radius_m
             if active is not None and math.dist(active.goal, cmd.blacklist) <= radius_m:
                 self.book.active = None
-            self._log(WARNING, "explorer: supervisor blacklisted (%.2f, %.2f)", *cmd.blacklist)
+            self._log(DEBUG, "explorer: supervisor blacklisted (%.2f, %.2f)", *cmd.blacklist)
             self.cycle_now = True
         if self.mode == "twist" and cmd.kind != "twist":
             # a recovery's last twist ends here: the base would drive on it until its command
@@ -592,10 +593,10 @@ class Explorer:
         for lin, ang in [(v, w)] + turn_only:
             if self._body_safe(ctx, pose, lin, ang):
                 if (lin, ang) != (v, w):
-                    self._log_throttled(5.0, now, WARNING, "explorer: recovery twist (%.2f m/s, %.2f "
+                    self._log_throttled(5.0, now, DEBUG, "explorer: recovery twist (%.2f m/s, %.2f "
                                         "rad/s) would bring the body onto an obstacle: turning only", v, w)
                 return Velocity(lin, ang)
-        self._log_throttled(5.0, now, WARNING, "explorer: recovery twist (%.2f m/s, %.2f rad/s) would "
+        self._log_throttled(5.0, now, DEBUG, "explorer: recovery twist (%.2f m/s, %.2f rad/s) would "
                             "bring the body onto an obstacle: stopped", v, w)
         return Velocity()
 
@@ -618,7 +619,7 @@ class Explorer:
         heading = None
         if kind == "explore" and retries == 0:
             heading = math.atan2(xy[1] - pose[1], xy[0] - pose[0])
-            self._log(INFO, "explorer: goal (%.2f, %.2f), %d frontiers", xy[0], xy[1], len(self.frontiers))
+            self._log(DEBUG, "explorer: goal (%.2f, %.2f), %d frontiers", xy[0], xy[1], len(self.frontiers))
         self._out.actions.append(SendGoal(kind, self.sent.xy, yaw, self.seq, retries, heading))
 
     def _cancel(self) -> None:

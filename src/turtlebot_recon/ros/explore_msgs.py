@@ -6,6 +6,7 @@
 - ``nav_status``: an actionlib terminal state -> the supervisor's navigator status word.
 - ``frontier_markers``: frontiers, the chosen goal and the tour -> visualization_msgs/MarkerArray.
 - ``pose_stamped``: (x, y, yaw) -> geometry_msgs/PoseStamped.
+- ``glimpses``: a TagDetectionArray of unconfirmed tags -> ``perception.tracker.Glimpse``s.
 """
 from __future__ import annotations
 
@@ -21,7 +22,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..behavior.scan_clearance import ScanClearance
 from ..geometry import cells_to_points
-from .convert import stamp, yaw_to_quaternion
+from ..perception.tracker import Glimpse
+from .convert import stamp, yaw_to_quaternion, z_axis_yaw
 
 
 def grid(m: OccupancyGrid) -> tuple:
@@ -62,6 +64,14 @@ def pose_stamped(x: float, y: float, yaw: Optional[float], frame: str, t_s: floa
     p.pose.position.x, p.pose.position.y = float(x), float(y)
     p.pose.orientation = Quaternion(0.0, 0.0, 0.0, 0.0) if yaw is None else yaw_to_quaternion(yaw)
     return p
+
+
+def glimpses(m) -> tuple:
+    """The tag tracker's tags/unconfirmed (pose: the side to look from) as Glimpses, stamped
+    with the message's time."""
+    t_s = m.header.stamp.to_sec()
+    return tuple(Glimpse(d.family, d.id, d.pose.pose.position.x, d.pose.pose.position.y,
+                         z_axis_yaw(d.pose.pose.orientation), t_s) for d in m.detections)
 
 
 # Marker colours (r, g, b, a)
