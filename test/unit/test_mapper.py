@@ -9,7 +9,7 @@ from conftest import room, write_world
 from turtlebot_recon.evaluation import map_precision
 from turtlebot_recon.geometry import compose
 from turtlebot_recon.mapping.map_io import MapError, load_map, save_map
-from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan
+from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan, body_disc
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.sim import load_world
 from turtlebot_recon.sim.simulator import SimSettings, Simulator
@@ -141,7 +141,7 @@ def test_the_floor_under_the_robot_is_free_once_it_stands_there():
     g = core.grid
     g.mark_bumper(1.0, 1.0, math.pi / 2, 0.0, 0.05, 1)    # an occupied cell at ~(1.0, 1.075)
     before = g.occupancy().copy()
-    core.motion((1.0, 1.0, math.pi / 2), 0.0)
+    core.motion((1.0, 1.0, math.pi / 2), 0.0, 0.0)
     occ = g.occupancy()
 
     def at(x, y):
@@ -233,3 +233,25 @@ def test_a_saved_map_is_the_start_and_scans_update_it(tmp_path):
         Mapper(MapperSettings(), robot_radius_m=0.105, prior=(occ, 0.1, origin))
     with pytest.raises(ValueError, match="set_logodds: a 3 x 3 array for a 40 x 60 grid"):
         g.set_logodds(np.zeros((3, 3), np.float32))
+
+
+def test_a_press_before_the_pose_is_marked_at_the_next_motion_if_fresh():
+    # the centre bumper (0 rad) of a 0.2 m body at (1.0, 1.0) facing +x marks x ~ 1.2
+    core = Mapper(MapperSettings(), robot_radius_m=0.2)
+    core.hold_bump(1, now_s=10.0)
+    core.motion((1.0, 1.0, 0.0), 0.0, now_s=10.4)          # 0.4 s later: within BUMP_MAX_AGE_S
+    g = core.grid
+    occ = g.occupancy()
+    r, c = int((1.0 - g.origin_y) / g.resolution), int((1.2 - g.origin_x) / g.resolution)
+    assert occ[r - 1:r + 2, c - 1:c + 2].max() >= 65 and core.bumps[0][0] == 1
+    core.hold_bump(1, now_s=20.0)
+    core.motion((1.0, 1.0, 0.0), 0.0, now_s=20.6)          # too late: the base may have moved
+    assert len(core.bumps) == 1 and core.skipped["bumper_no_tf"] == 1 and not core.held_bumps
+
+
+def test_body_disc_of_a_round_and_a_box_robot():
+    assert body_disc(load_robot("turtlebot3_burger")) == (0.0, load_robot("turtlebot3_burger").radius_m)
+    waffle = load_robot("turtlebot3_waffle_pi")
+    ahead, radius = body_disc(waffle)
+    assert ahead == waffle.footprint_offset_x_m
+    assert radius == 0.5 * min(waffle.footprint_length_m, waffle.footprint_width_m)

@@ -8,6 +8,7 @@ import yaml
 from geometry_msgs.msg import Quaternion
 
 from turtlebot_recon.config import ConfigError
+from turtlebot_recon.evaluation.evaluator import EvaluatorSettings, end_reason
 from turtlebot_recon.exploration.node_settings import explorer_params
 from turtlebot_recon.msg import TagDetection, TagDetectionArray
 from turtlebot_recon.paths import SHARE_DIR
@@ -98,3 +99,11 @@ def test_explorer_params_read_every_block_and_warn_when_one_is_missing():
     params["cycle_period_s"] = -1.0
     with pytest.raises(ConfigError, match="cycle_period_s"):
         explorer_params(params, "/explorer", warned.append)
+
+
+def test_evaluator_end_rule_stop_coverage_first_then_the_budget():
+    s = EvaluatorSettings(world="house", robot="turtlebot3_burger", budget_s=100.0, stop_coverage=0.9)
+    assert end_reason(s, 50.0, 0.5) is None
+    assert end_reason(s, 50.0, 0.95) == "coverage 95.0 % reached stop_coverage 0.9"
+    assert end_reason(s, 100.0, None) == "time budget 100 s spent"       # no map: the budget still ends it
+    assert end_reason(EvaluatorSettings(world="house", robot="turtlebot3_burger", budget_s=0.0), 1e6, 1.0) is None

@@ -178,6 +178,17 @@ class RunLog:
         return np.column_stack([p[:, 0] - (self.t0_s or 0.0), world_to_map(p[:, 1:], self.start)])
 
 
+def end_reason(settings: EvaluatorSettings, elapsed_s: float, coverage: Optional[float]) -> Optional[str]:
+    """Why the run ends at a coverage sample: ``stop_coverage`` reached (``coverage``: the
+    sample's, None without a map), else ``budget_s`` of sim time spent since the explorer's
+    start (``elapsed_s``); None: it goes on."""
+    if coverage is not None and 0 < settings.stop_coverage <= coverage:
+        return f"coverage {100 * coverage:.1f} % reached stop_coverage {settings.stop_coverage:g}"
+    if settings.budget_s > 0 and elapsed_s >= settings.budget_s:
+        return f"time budget {settings.budget_s:g} s spent"
+    return None
+
+
 def true_tags(world: World) -> list:
     """The world's tags as (family, id, x, y, z) in the map frame (x, y: ``world_to_map``)."""
     xy = world_to_map(np.array([[t.x, t.y] for t in world.tags], float).reshape(-1, 2), world.start)

@@ -20,6 +20,7 @@ from .grid import GridSettings, make_grid
 # Kobuki bumpers (kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2): body angle of each centre.
 BUMPER_ANGLE_RAD = {0: math.pi / 3, 1: 0.0, 2: -math.pi / 3}
 TIME_JUMP_BACK_S = 1.0   # the clock going back this far means a restarted simulation or bag
+BUMP_MAX_AGE_S = 0.5     # s, a press held for the base's pose is marked at most this much later
 
 
 def _key(stamp_s: float) -> int:
@@ -64,6 +65,14 @@ class Scan:
     stamp_s: float
 
 
+def body_disc(robot) -> tuple:
+    """(centre ahead of base_footprint m, radius m): the largest disc inside a robot's body (a
+    RobotSpec); a box's is centred on the box, radius half its smaller side."""
+    if robot.is_round:
+        return 0.0, robot.radius_m
+    return robot.footprint_offset_x_m, 0.5 * min(robot.footprint_length_m, robot.footprint_width_m)
+
+
 class Mapper:
     def __init__(self, settings: MapperSettings, robot_radius_m: float,
                  body_disc: tuple | None = None, prior: tuple | None = None):
@@ -86,6 +95,7 @@ class Mapper:
         self.history_index = {}      # stamp key -> index in history
         self.drawn = {}              # keyframe stamp key -> map pose it was last drawn at (None: no scan)
         self.bumps = []              # (side, base pose in the map, base odom pose or None)
+        self.held_bumps = []         # (side, sim time s): presses that came before the base's pose
         self.rerenders = 0
 
     def check_scan(self, scan: Scan) -> str | None:
@@ -250,12 +260,26 @@ class Mapper:
                               self.robot_radius_m, self.settings.grid.bumper_cells)
         self.bumps.append((side, tuple(base_pose), None if base_odom is None else tuple(base_odom)))
 
-    def motion(self, base_pose: tuple, speed_mps: float) -> None:
+    def hold_bump(self, side: int, now_s: float) -> None:
+        """A press at sim time ``now_s`` with no base pose yet (TF): a press is rare and precious,
+        so it is kept for the next ``motion`` rather than lost."""
+        self.held_bumps.append((side, now_s))
+
+    def motion(self, base_pose: tuple, speed_mps: float, now_s: float) -> None:
+        """The base at ``base_pose`` (map frame) moving at ``speed_mps``, at sim time ``now_s``:
+        a visit, the body's floor free, and the held presses marked there if at most
+        BUMP_MAX_AGE_S old (the base has barely moved), else dropped and counted."""
         self.grid.add_visit(base_pose[0], base_pose[1], abs(speed_mps), self.settings.grid.visit_min_speed_mps)
         # The lidar never sees the floor under the body (inside its minimum range): those
         # cells would stay unknown and make a frontier at the robot's own feet (a nearest-
         # frontier explorer then "reaches" it forever). The robot stands there: free.
         self._free_body(self.grid, base_pose)
+        for side, pressed in self.held_bumps:
+            if 0.0 <= now_s - pressed <= BUMP_MAX_AGE_S:
+                self.bumper(side, base_pose)
+            else:
+                self.skipped["bumper_no_tf"] += 1
+        self.held_bumps.clear()
 
     def _free_body(self, grid, base_pose) -> None:
         ahead, radius = self.body_disc

@@ -7,6 +7,7 @@
 - ``frontier_markers``: frontiers, the chosen goal and the tour -> visualization_msgs/MarkerArray.
 - ``pose_stamped``: (x, y, yaw) -> geometry_msgs/PoseStamped.
 - ``glimpses``: a TagDetectionArray of unconfirmed tags -> ``perception.tracker.Glimpse``s.
+- ``tag_positions``: a TagDetectionArray (/tags) -> (family, id, x, y, z) per tag.
 """
 from __future__ import annotations
 
@@ -72,6 +73,12 @@ def glimpses(m) -> tuple:
     t_s = m.header.stamp.to_sec()
     return tuple(Glimpse(d.family, d.id, d.pose.pose.position.x, d.pose.pose.position.y,
                          z_axis_yaw(d.pose.pose.orientation), t_s) for d in m.detections)
+
+
+def tag_positions(m) -> list:
+    """The tags of a TagDetectionArray as (family, id, x, y, z), m in its frame."""
+    return [(d.family, d.id, d.pose.pose.position.x, d.pose.pose.position.y, d.pose.pose.position.z)
+            for d in m.detections]
 
 
 # Marker colours (r, g, b, a)

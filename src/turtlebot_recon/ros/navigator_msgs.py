@@ -1,6 +1,7 @@
 """Messages of the navigator <-> core data (no algorithm here).
 
 - ``path``: (n, 2) points -> nav_msgs/Path (/plan).
+- ``path_poses``: nav_msgs/Path (SLAM's keyframes) -> their stamps and (x, y, yaw) poses.
 - ``rollout_markers``: a controller's ``markers()`` (its trajectory and rollouts with their
   scores) -> visualization_msgs/MarkerArray (~controller_markers).
 - ``goal_yaw``: a goal pose's heading, None for an all-zero quaternion ("any final heading").
@@ -31,6 +32,14 @@ def path(xy: np.ndarray, frame: str, stamp: rospy.Time) -> Path:
         p.pose.orientation.w = 1.0
         m.poses.append(p)
     return m
+
+
+def path_poses(m: Path) -> tuple:
+    """(stamps s, poses (x, y, yaw)) of a Path's poses: SLAM's keyframes on /slam/path, each
+    stamped with its scan's stamp."""
+    stamps = [p.header.stamp.to_sec() for p in m.poses]
+    poses = [(p.pose.position.x, p.pose.position.y, quaternion_to_yaw(p.pose.orientation)) for p in m.poses]
+    return stamps, poses
 
 
 def goal_yaw(q) -> Optional[float]:
