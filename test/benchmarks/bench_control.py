@@ -54,6 +54,7 @@ from turtlebot_recon.control import ControlInput  # noqa: E402
 from turtlebot_recon.control.dwa import DwaController, DwaSettings  # noqa: E402
 from turtlebot_recon.control.footprint import BodyCheck  # noqa: E402
 from turtlebot_recon.control.mppi import MppiController, MppiSettings  # noqa: E402
+from turtlebot_recon.control.tracking import TrackingSettings  # noqa: E402
 from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettings  # noqa: E402
 from turtlebot_recon.robot import RobotSpec, load_robot  # noqa: E402
 
@@ -66,8 +67,8 @@ UNICYCLE = RobotSpec(name="unicycle", wheel_radius_m=0.033, wheel_separation_m=0
                      max_angular_accel_radps2=1e3, radius_m=0.1)
 EXPERIMENT_MPPI = MppiSettings(batch_size=1000, time_steps=30, model_dt_s=DT, control_rate_hz=1 / DT,
                                min_linear_mps=-1.0, noise_std_v_mps=0.5, noise_std_w_radps=1.0,
-                               goal_region_m=3.0, rotate_threshold_rad=math.pi,
-                               xy_goal_tolerance_m=1e-3)
+                               goal_region_m=3.0)
+EXPERIMENT_TRACKING = TrackingSettings(rotate_threshold_rad=math.pi, xy_goal_tolerance_m=1e-3)
 # (seed 000's controllers never turn on the spot first, rotate_threshold_rad pi switches it off;
 # nor stop at the goal, xy_goal_tolerance_m 1 mm: see the module docstring)
 # The tube wider than a step's noise (~0.1 m, 0.35 rad); iLQR stiffer than the robot's defaults
@@ -98,9 +99,9 @@ CONTROLLERS = ("mppi", "tube_mppi", "tube_mppi_smooth")
 def make_controller(kind: str):
     """The experiments' controllers: seed 000's unicycle, the same MPPI settings for both."""
     if kind == "mppi":
-        return MppiController(EXPERIMENT_MPPI, UNICYCLE)
+        return MppiController(EXPERIMENT_MPPI, UNICYCLE, EXPERIMENT_TRACKING)
     tube = EXPERIMENT_TUBE_SMOOTH if kind == "tube_mppi_smooth" else EXPERIMENT_TUBE
-    return TubeMppiController(replace(tube, mppi=EXPERIMENT_MPPI), UNICYCLE)
+    return TubeMppiController(replace(tube, mppi=EXPERIMENT_MPPI), UNICYCLE, EXPERIMENT_TRACKING)
 
 
 def noisy_step(x: np.ndarray, u: np.ndarray, rng, control_std, state_half) -> np.ndarray:
@@ -335,7 +336,7 @@ def main() -> None:
            "tube_smooth_q_yaw_per_rad2": EXPERIMENT_TUBE_SMOOTH.q_yaw_per_rad2,
            "tube_smooth_r_change_linear_s2_per_m2": EXPERIMENT_TUBE_SMOOTH.r_change_linear_s2_per_m2,
            "tube_smooth_r_change_angular_s2_per_rad2": EXPERIMENT_TUBE_SMOOTH.r_change_angular_s2_per_rad2,
-           "experiment_xy_goal_tolerance_m": EXPERIMENT_MPPI.xy_goal_tolerance_m}
+           "experiment_xy_goal_tolerance_m": EXPERIMENT_TRACKING.xy_goal_tolerance_m}
 
     # (a)
     waypoint = {k: noisy_unicycle(k, args.runs, WAYPOINT_NOISE) for k in CONTROLLERS}

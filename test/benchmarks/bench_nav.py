@@ -197,7 +197,7 @@ def run_one(task: dict) -> dict:
                 loc.add_scan(sim.time_s, pts + np.array([lid.x_m, lid.y_m]), (sim.odom.x, sim.odom.y, sim.odom.yaw))
         x, y, _ = sim.pose
         off = math.hypot(x - goal[0], y - goal[1])
-        tol = getattr(settings.controller_settings(), "xy_goal_tolerance_m", settings.follower.xy_goal_tolerance_m)
+        tol = settings.tracking.xy_goal_tolerance_m
         success = nav.status == "succeeded" and off <= tol + SUCCESS_SLACK_M
         truth_a = np.array(truth).reshape(-1, 3)
         clearance = _native.body_field_clearance(

@@ -120,7 +120,7 @@ def test_motion_model_matches_the_numpy_reference_and_keeps_the_limits():
     req = np.stack([rng.normal(0, 1.0, (64, 40)), rng.normal(0, 4.0, (64, 40))], axis=-1)
     pose, vel, dt = (1.0, -2.0, 0.7), (0.1, -0.5), 0.05
     lim = dict(min_linear_mps=-0.1, max_linear_mps=0.26, max_angular_radps=1.82,
-               max_linear_accel_mps2=2.5, max_angular_accel_radps2=3.2)
+               max_linear_accel_mps2=2.5, max_angular_accel_radps2=3.2, clamp_velocity=True)
     controls, poses = _native.mppi_motion_model(pose, vel, req, dt, **lim)
     v, w = mppi_numpy.constrain(req[..., 0], req[..., 1], *vel, dt, lim)
     x, y, yaw = mppi_numpy.integrate(v, w, pose, dt)
@@ -523,21 +523,25 @@ def test_the_robot_on_an_obstacle_cell_stops():
 
 def test_the_binding_says_what_is_wrong():
     limits = dict(max_linear_mps=0.26, max_angular_radps=1.82, max_linear_accel_mps2=2.5,
-                  max_angular_accel_radps2=3.2, radius_m=0.105)
+                  max_angular_accel_radps2=3.2, footprint_length_m=0.0, footprint_width_m=0.0,
+                  footprint_offset_x_m=0.0, radius_m=0.105, seed=0)
     with pytest.raises(ValueError, match="MppiOptimizer: unknown config key 'tempreature'"):
-        _native.MppiOptimizer({"tempreature": 0.3}, **limits)
+        _native.MppiOptimizer({"tempreature": 0.3, "min_linear_mps": -0.1}, **limits)
     with pytest.raises(ValueError, match="MppiOptimizer: batch_size must be an integer"):
-        _native.MppiOptimizer({"batch_size": 2000.0}, **limits)
+        _native.MppiOptimizer({"batch_size": 2000.0, "min_linear_mps": -0.1}, **limits)
     with pytest.raises(ValueError, match="temperature must be > 0"):
-        _native.MppiOptimizer({"temperature": 0.0}, **limits)
-    opt = _native.MppiOptimizer({"batch_size": 10, "time_steps": 5}, **limits)
+        _native.MppiOptimizer({"temperature": 0.0, "min_linear_mps": -0.1}, **limits)
+    # the slowest speed has one default, config/mppi.yaml's: C++ has none of its own
+    with pytest.raises(ValueError, match="min_linear_mps is not set"):
+        _native.MppiOptimizer({"batch_size": 10, "time_steps": 5}, **limits)
+    opt = _native.MppiOptimizer({"batch_size": 10, "time_steps": 5, "min_linear_mps": -0.1}, **limits)
     with pytest.raises(ValueError, match="MppiOptimizer.optimize: no map"):
-        opt.optimize((0, 0, 0), (0, 0), [[0.0, 0.0], [1.0, 0.0]], (1.0, 0.0))
-    opt.set_map(np.zeros((40, 40), np.int8), RES, (0.0, 0.0))
+        opt.optimize((0, 0, 0), (0, 0), [[0.0, 0.0], [1.0, 0.0]], (1.0, 0.0), shift_steps=1)
+    opt.set_map(np.zeros((40, 40), np.int8), RES, (0.0, 0.0), occupied_threshold=65)
     with pytest.raises(ValueError, match="MppiOptimizer.optimize: path must be an"):
-        opt.optimize((1, 1, 0), (0, 0), [1.0, 0.0], (1.0, 0.0))
+        opt.optimize((1, 1, 0), (0, 0), [1.0, 0.0], (1.0, 0.0), shift_steps=1)
     with pytest.raises(ValueError, match="must be finite"):
-        opt.optimize((1, 1, np.nan), (0, 0), [[1.0, 1.0], [1.5, 1.0]], (1.5, 1.0))
-    out = opt.optimize((1, 1, 0), (0, 0), [[1.0, 1.0], [1.5, 1.0]], (1.5, 1.0))
+        opt.optimize((1, 1, np.nan), (0, 0), [[1.0, 1.0], [1.5, 1.0]], (1.5, 1.0), shift_steps=1)
+    out = opt.optimize((1, 1, 0), (0, 0), [[1.0, 1.0], [1.5, 1.0]], (1.5, 1.0), shift_steps=1)
     assert out["controls"].shape == (5, 2) and out["states"].shape == (6, 3)
     assert opt.costs().shape == (10,) and opt.rollouts(4).shape == (4, 5, 3)

@@ -16,8 +16,8 @@ from turtlebot_recon.control.tube_mppi import TubeMppiController, TubeMppiSettin
 from turtlebot_recon.robot import load_robot
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from bench_control import (DT, EXPERIMENT_MPPI, GOAL, RES, UNICYCLE, WAYPOINT_NOISE, drive,  # noqa: E402
-                           jerk)
+from bench_control import (DT, EXPERIMENT_MPPI, EXPERIMENT_TRACKING, GOAL, RES, UNICYCLE,  # noqa: E402
+                           WAYPOINT_NOISE, drive, jerk)
 
 # seed 000's idealised unicycle and MPPI settings, as bench-control's, with fewer samples
 UNICYCLE_MPPI = replace(EXPERIMENT_MPPI, batch_size=300)
@@ -39,7 +39,7 @@ def seed_000_trip(tube, seed):
     """bench-control's closed loop (seed 000's noisy unicycle, (0, 0) -> (3, 3), 50 steps of
     0.1 s) with this Tube MPPI: the commands sent and the true states."""
     occ, origin = empty()
-    controller = TubeMppiController(replace(tube, mppi=UNICYCLE_MPPI), UNICYCLE)
+    controller = TubeMppiController(replace(tube, mppi=UNICYCLE_MPPI), UNICYCLE, EXPERIMENT_TRACKING)
     return drive(controller, (0.0, 0.0, 0.0), lambda x: np.array([x[:2], GOAL]), 50, WAYPOINT_NOISE,
                  np.random.default_rng(seed), occ, origin)
 
@@ -69,7 +69,7 @@ def test_the_change_cost_filters_the_command():
 
 def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
     occ, origin = empty()
-    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
+    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE, EXPERIMENT_TRACKING)
     path = [[0.0, 0.0], [3.0, 0.0]]
     x = np.zeros(3)
     for k in range(3):                         # noise free: the robot stays on the nominal
@@ -94,7 +94,7 @@ def test_the_nominal_restarts_when_the_robot_leaves_the_tube():
 def test_the_ancillary_pulls_back_toward_the_nominal():
     """0.3 m left of a nominal that drives along +x, iLQR steers right (w < 0)."""
     occ, origin = empty()
-    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE)
+    controller = TubeMppiController(replace(WIDE_TUBE, mppi=UNICYCLE_MPPI), UNICYCLE, EXPERIMENT_TRACKING)
     path = [[0.0, 0.0], [5.0, 0.0]]
     x = np.zeros(3)
     for k in range(5):

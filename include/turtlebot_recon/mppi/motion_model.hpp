@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace turtlebot_recon::mppi {
@@ -30,7 +31,8 @@ struct Speeds {
 };
 
 struct MotionLimits {
-  double min_linear_mps = 0.0;          // < 0 allows reversing
+  // < 0 allows reversing; no default here: the caller's (config/mppi.yaml), NaN until set
+  double min_linear_mps = std::numeric_limits<double>::quiet_NaN();
   double max_linear_mps = 0.26;
   double max_angular_radps = 1.82;      // symmetric: [-max, max]
   double max_linear_accel_mps2 = 2.5;
@@ -39,6 +41,8 @@ struct MotionLimits {
                                         // velocity_limits critic then prices the excess)
 
   void validate() const {
+    if (std::isnan(min_linear_mps))
+      throw std::invalid_argument("MotionLimits: min_linear_mps is not set (config/mppi.yaml)");
     if (!(max_linear_mps > 0 && min_linear_mps <= 0 && max_angular_radps > 0 &&
           max_linear_accel_mps2 > 0 && max_angular_accel_radps2 > 0))
       throw std::invalid_argument(

@@ -4,9 +4,10 @@ contract; the sampling and scoring are C++ (include/turtlebot_recon/dwa.hpp, ``_
 One control step, ``DwaController.compute(ControlInput) -> ControlOutput``:
 
 1. progress  the path point closest to the robot, searched forward from the last one only
-             (the follower's ``_Track``: exact on the path's segments, a densified path in effect).
-2. goal      within ``xy_goal_tolerance_m`` of the end (latched): turn in place to ``goal_yaw``
-             if one is given, then "arrived" (as the follower).
+             (the shared ``tracking.PathTracker``: exact on the path's segments, a densified
+             path in effect).
+2. goal      within ``xy_goal_tolerance_m`` of the end (the tracker's latch): turn in place to
+             ``goal_yaw`` if one is given, then "arrived".
 3. target    the look-ahead point at arc length L_d beyond the closest point,
              L_d = lookahead_min_m + lookahead_time_s v_top, v_top the window's top speed
              (the measured |v| + one period's acceleration, at most the robot's maximum; seed
@@ -14,7 +15,7 @@ One control step, ``DwaController.compute(ControlInput) -> ControlOutput``:
              point lies lookahead_min_m beyond the farthest arc end, so the heading term (the
              bearing of the point from each arc's end pose) never looks back at it.
 4. rotate    the target more than ``rotate_threshold_rad`` off the heading: turn in place toward
-             it where the turn is clear (as the follower); a window of +-a_w T around w = 0
+             it where the turn is clear (the tracker's law); a window of +-a_w T around w = 0
              would take many periods to turn round on arcs.
 5. DWA       n_v x n_w arcs in the dynamic window (C++): body against the distance field of the
              occupancy, Fox's admissibility, score 0.75 heading + 0.18 clearance + 0.08 velocity.
@@ -52,10 +53,10 @@ from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec, footprint_args
-from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers,
-               ControlOutput, PeriodClock)
-from .follower import _clean_path, _Grid, _Track
+from .base import (BLOCKED, FOLLOWING, NO_PATH, ControlInput, ControlMarkers, ControlOutput,
+                   PeriodClock)
 from .footprint import BodyCheck
+from .tracking import Grid, PathTracker, Track, TrackingSettings, finite
 
 STALL_MPS = 0.01   # a best arc this slow, from standstill and not turning: no way on ("blocked")
 CORNER_CLEARANCE_M = 0.1   # a corner where the turning disc clears obstacles by less is tight
@@ -81,15 +82,6 @@ class DwaSettings:
     # the look-ahead point: L_d = lookahead_min_m + lookahead_time_s x the window's top speed
     lookahead_min_m: float = 0.3         # m beyond the farthest arc end (with the time = horizon)
     lookahead_time_s: float = 2.0        # s, = horizon_s: the point stays beyond every arc
-    progress_window_m: float = 1.0       # closest-point search this far past the last progress
-    # turning in place (as the follower)
-    rotate_threshold_rad: float = 1.047  # 60 deg: the target farther off the heading: turn first
-    rotate_speed_max_radps: float = 0.8  # rad/s, also capped by the robot's max_angular_radps
-    rotate_speed_min_radps: float = 0.2  # rad/s, beats wheel stiction
-    rotate_gain_per_s: float = 1.5       # 1/s, in-place turn rate = gain x heading error
-    # goal (as the follower)
-    xy_goal_tolerance_m: float = 0.1     # m, latched
-    yaw_goal_tolerance_rad: float = 0.1  # rad, when the goal has a yaw
     # collisions
     collision_margin_m: float = 0.005    # m, the body nearer an obstacle's edge than this collides
     unknown_is_collision: bool = True    # an arc whose centre enters unknown space is rejected
@@ -99,32 +91,30 @@ class DwaSettings:
 
     def validate(self, src: str) -> None:
         positive(src, self, "linear_samples", "angular_samples", "horizon_s", "dt_s",
-                 "clearance_max_m", "lookahead_min_m", "progress_window_m",
-                 "rotate_threshold_rad", "rotate_speed_max_radps", "rotate_speed_min_radps",
-                 "rotate_gain_per_s", "xy_goal_tolerance_m", "yaw_goal_tolerance_rad",
-                 "collision_margin_m", "outline_spacing_m", "check_horizon_s",
+                 "clearance_max_m", "lookahead_min_m", "collision_margin_m", "outline_spacing_m", "check_horizon_s",
                  "exact_check_tries")
         for key in ("heading_weight", "clearance_weight", "velocity_weight", "lookahead_time_s"):
             require(getattr(self, key) >= 0, src, key, "must be >= 0")
         require(self.heading_weight + self.clearance_weight + self.velocity_weight > 0, src,
                 "heading_weight", "the three weights must not all be 0")
         require(self.dt_s <= self.horizon_s, src, "dt_s", f"must be <= horizon_s ({self.horizon_s})")
-        require(self.rotate_threshold_rad <= math.pi, src, "rotate_threshold_rad", "must be <= pi")
-        require(self.rotate_speed_min_radps <= self.rotate_speed_max_radps, src,
-                "rotate_speed_min_radps", "must be <= rotate_speed_max_radps")
 
 
 class DwaController:
-    """DWA (C++) on the path's look-ahead point, with the follower's goal handling, in-place
-    turns and an exact footprint check of the command."""
+    """DWA (C++) on the path's look-ahead point, with the shared goal handling and in-place
+    turns (tracking.PathTracker) and an exact footprint check of the command."""
 
-    def __init__(self, settings: DwaSettings, robot: RobotSpec):
+    def __init__(self, settings: DwaSettings, robot: RobotSpec,
+                 tracking: Optional[TrackingSettings] = None):
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self.tracker = PathTracker(TrackingSettings() if tracking is None else tracking, robot,
+                                   self.body)
         s = settings
         self.dwa = _native.Dwa(
             max_linear_mps=robot.max_linear_mps, max_angular_radps=robot.max_angular_radps,
+            min_linear_mps=0.0,          # forward only, as every controller here but MPPI
             linear_accel_mps2=robot.max_linear_accel_mps2,
             angular_accel_radps2=robot.max_angular_accel_radps2, **footprint_args(robot),
             outline_spacing_m=s.outline_spacing_m, linear_samples=s.linear_samples,
@@ -137,52 +127,43 @@ class DwaController:
         self.reset()
 
     def reset(self) -> None:
-        self._track: Optional[_Track] = None
-        self._progress_m: Optional[float] = None
-        self._xy_reached = False
+        self.tracker.reset()
         self._clock.reset()
         self.last_plan: Optional[dict] = None       # the last DWA result (for markers)
         self._last_pose: Optional[tuple] = None
 
     # ------------------------------------------------------------------ the step
     def compute(self, inp: ControlInput) -> ControlOutput:
-        cfg = self.settings
+        cfg, tracker = self.settings, self.tracker
         self.last_plan = None
-        track = self._follow(inp.path)
+        track = tracker.follow(inp.path)
         if track is None:
+            self.reset()
             return ControlOutput(0.0, 0.0, NO_PATH, detail="fewer than two finite waypoints")
-        try:
-            x, y, yaw = (float(v) for v in inp.pose[:3])
-            v_meas, w_meas = (float(v) for v in inp.velocity[:2])
-        except (TypeError, ValueError):
-            return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose or velocity is malformed")
-        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
+        grid = Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
         if grid is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable map")
-        if not all(map(math.isfinite, (x, y, yaw))):
+        pose = finite(inp.pose, 3)
+        if pose is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
-        if not (math.isfinite(v_meas) and math.isfinite(w_meas)):
+        velocity = finite(inp.velocity, 2)
+        if velocity is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the measured velocity is not finite")
+        (x, y, yaw), (v_meas, w_meas) = pose, velocity
         period_s = self._clock(inp.now_s)
         xy = np.array([x, y])
 
-        self._progress_m = track.progress(xy, self._progress_m, cfg.progress_window_m)
-        remaining_m = track.length - self._progress_m
+        progress_m = tracker.advance(xy)
+        remaining_m = track.length - progress_m
         d_goal_xy = float(np.hypot(*(track.goal - xy)))
         goal = (float(track.goal[0]), float(track.goal[1]))
         if grid.occupancy(np.array([x]), np.array([y]))[0] >= self.body.occupied_threshold:
             return ControlOutput(0.0, 0.0, BLOCKED, goal, "the robot's cell is an obstacle")
 
         # 2. goal
-        tol = cfg.xy_goal_tolerance_m
-        if self._xy_reached or (d_goal_xy <= tol and remaining_m <= tol):
-            self._xy_reached = True
-            if inp.goal_yaw is None or not math.isfinite(inp.goal_yaw):
-                return ControlOutput(0.0, 0.0, ARRIVED, goal)
-            err = wrap_angle(float(inp.goal_yaw) - yaw)
-            if abs(err) <= cfg.yaw_goal_tolerance_rad:
-                return ControlOutput(0.0, 0.0, ARRIVED, goal)
-            return self._turn(inp, (x, y, yaw), err, goal, "the goal's heading")
+        if tracker.at_goal(d_goal_xy, remaining_m):
+            return tracker.arrive(inp, pose, goal)
+        tol = tracker.settings.xy_goal_tolerance_m
 
         # 3. the look-ahead point, 4. far behind: turn in place
         v_top = min(self.robot.max_linear_mps, abs(v_meas) + self.robot.max_linear_accel_mps2 * period_s)
@@ -191,22 +172,22 @@ class DwaController:
         corner, standing_on = self._tight_corner(inp, track, xy, lookahead_m)
         if standing_on is not None:          # on a tight corner: face the next segment first
             err = wrap_angle(math.atan2(standing_on[1], standing_on[0]) - yaw)
-            if abs(err) > ALIGN_RAD and self.body.turn_clear(inp, (x, y, yaw), err):
-                return self._turn(inp, (x, y, yaw), err, (x, y), "the next segment")
+            if abs(err) > ALIGN_RAD and self.body.turn_clear(inp, pose, err):
+                return tracker.turn(inp, pose, err, (x, y), "the next segment")
         if corner is not None:               # a tight corner ahead: aim at it, stop on it
             target, stop = corner, (float(corner[0]), float(corner[1]))
             tol = CORNER_TOLERANCE_M
             remaining_m = d_goal_xy = math.hypot(corner[0] - x, corner[1] - y)
         else:
-            target = track.point_at(self._progress_m + lookahead_m)
+            target = track.point_at(progress_m + lookahead_m)
         target_t = (float(target[0]), float(target[1]))
         alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - yaw) \
             if math.hypot(target[0] - x, target[1] - y) > 1e-9 else 0.0
-        if abs(alpha) > cfg.rotate_threshold_rad and corner is None:
-            return self._turn(inp, (x, y, yaw), alpha, target_t, "the look-ahead point")
+        if abs(alpha) > tracker.settings.rotate_threshold_rad and corner is None:
+            return tracker.turn(inp, pose, alpha, target_t, "the look-ahead point")
 
         # 5. DWA, clearance scored up to the plan's own ahead
-        ahead = self._path_poses(inp, track, self._progress_m, self._progress_m + lookahead_m)
+        ahead = self._path_poses(inp, track, progress_m, progress_m + lookahead_m)
         plan = self.dwa.plan(np.asarray(inp.occupancy, dtype=np.int8), float(inp.resolution),
                              (float(inp.origin[0]), float(inp.origin[1])), (x, y, yaw),
                              (v_meas, w_meas), period_s, target_t, stop,
@@ -222,7 +203,8 @@ class DwaController:
         for i in order[:cfg.exact_check_tries]:
             v, w = float(plan["v"][i]), float(plan["w"][i])
             if self.body.stays_clear(inp, self._arc(x, y, yaw, v, w)):
-                if v < STALL_MPS and abs(v_meas) < STALL_MPS and abs(w) < cfg.rotate_speed_min_radps:
+                if v < STALL_MPS and abs(v_meas) < STALL_MPS \
+                        and abs(w) < tracker.settings.rotate_speed_min_radps:
                     return ControlOutput(0.0, 0.0, BLOCKED, target_t, (
                         f"no admissible arc moves the robot on: the best is v {v:.3f} m/s, w "
                         f"{w:.2f} rad/s; robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad)"))
@@ -267,7 +249,7 @@ class DwaController:
         return np.column_stack([x + chord * np.cos(yaw + th / 2), y + chord * np.sin(yaw + th / 2),
                                 yaw + th])
 
-    def _tight_corner(self, inp: ControlInput, track: _Track, xy: np.ndarray,
+    def _tight_corner(self, inp: ControlInput, track: Track, xy: np.ndarray,
                       lookahead_m: float) -> tuple:
         """(the next corner within ``lookahead_m`` where the turning disc does not clear
         obstacles by CORNER_CLEARANCE_M, or None; the direction of the segment after the tight
@@ -277,8 +259,8 @@ class DwaController:
         if inner.size == 0:
             return None, None
         s = track.s[inner]
-        near = inner[(s >= self._progress_m - CORNER_TOLERANCE_M)
-                     & (s <= self._progress_m + lookahead_m)]
+        progress_m = self.tracker.progress_m
+        near = inner[(s >= progress_m - CORNER_TOLERANCE_M) & (s <= progress_m + lookahead_m)]
         if near.size == 0:
             return None, None
         tight = ~self.body.disc_clear(inp, track.points[near], CORNER_CLEARANCE_M)
@@ -291,7 +273,7 @@ class DwaController:
         return None, None
 
     @staticmethod
-    def _path_poses(inp: ControlInput, track: _Track, s0: float, s1: float) -> np.ndarray:
+    def _path_poses(inp: ControlInput, track: Track, s0: float, s1: float) -> np.ndarray:
         """Poses every cell along the path from arc length s0 to s1, each facing along its
         segment: DWA scores clearance up to the body's least clearance there."""
         s = np.arange(s0, min(s1, track.length) + 1e-9, float(inp.resolution))
@@ -315,28 +297,3 @@ class DwaController:
         r = self.robot
         return (float(min(max(v, 0.0), r.max_linear_mps)),
                 float(min(max(w, -r.max_angular_radps), r.max_angular_radps)))
-
-    def _follow(self, path) -> Optional[_Track]:
-        points = _clean_path(path)
-        if points is None:
-            self.reset()
-            return None
-        old = self._track
-        if old is None or old.points.shape != points.shape or not np.array_equal(old.points, points):
-            self._track = _Track(points)
-            self._xy_reached = False
-            self._progress_m = None
-        return self._track
-
-
-    def _turn(self, inp: ControlInput, pose: tuple, err: float, target: tuple,
-              what: str) -> ControlOutput:
-        cfg = self.settings
-        if self.body.turn_clear(inp, pose, err):
-            top = min(cfg.rotate_speed_max_radps, self.robot.max_angular_radps)
-            mag = min(max(cfg.rotate_gain_per_s * abs(err), cfg.rotate_speed_min_radps), top)
-            return ControlOutput(0.0, math.copysign(mag, err), ROTATING, target)
-        return ControlOutput(0.0, 0.0, BLOCKED, target, (
-            f"turning {err:.2f} rad in place to {what} would bring the body within "
-            f"{cfg.collision_margin_m} m of an obstacle; robot at ({pose[0]:.2f}, {pose[1]:.2f}, "
-            f"{pose[2]:.2f} rad)"))

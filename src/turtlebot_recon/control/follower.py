@@ -2,11 +2,10 @@
 
 One control step, ``PurePursuit.compute(ControlInput) -> ControlOutput``:
 
-1. progress   the path point closest to the robot, searched only from the last progress point
-              forward over ``progress_window_m`` of path: the robot never turns back to a part
-              of the path it has passed, nor jumps ahead to a later leg that comes close (U-turn).
-              A new path is searched whole once.
-2. goal       within ``xy_goal_tolerance_m`` of the end (latched): turn in place to
+1. progress   the path point closest to the robot, searched forward only (the shared
+              ``tracking.PathTracker``: never back to a part of the path it has passed, nor on
+              to a later leg that comes close, a U-turn's).
+2. goal       within ``xy_goal_tolerance_m`` of the end (the tracker's latch): turn in place to
               ``goal_yaw`` if one is given, then "arrived".
 3. carrot     the path point at arc length L_d beyond the closest point,
               L_d = clamp(lookahead_time_s |v|, lookahead_min_m, lookahead_max_m), v measured;
@@ -40,9 +39,11 @@ line, and the look-ahead check ends on the corner), turns in place to the next s
 arc), and drives on. The start of the path is such a corner when the robot stands in a narrow
 place.
 
-Turning in place (steps 2, 4, 7, corners) is allowed only where BodyCheck.turn_clear finds the
-turn safe: the turning disc fits, or the box is clear at every yaw of the sweep. The follower
-never reverses.
+Turning in place (steps 2, 4, 7, corners) follows the tracker's turn-in-place law, and only
+where BodyCheck.turn_clear finds the turn safe: the turning disc fits, or the box is clear at
+every yaw of the sweep. The parameters shared with the other controllers (progress window, goal
+tolerances, turning in place) are ``TrackingSettings`` (navigator.yaml's ``tracking``). The
+follower never reverses.
 """
 from __future__ import annotations
 
@@ -53,12 +54,12 @@ from typing import Optional
 import numpy as np
 
 from ..config import positive, require
-from ..geometry import inside, points_to_cells, wrap_angle
+from ..geometry import wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput, PeriodClock
+from .base import BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput, PeriodClock
 from .footprint import BodyCheck
+from .tracking import Grid, PathTracker, Track, TrackingSettings, finite
 
-NO_INFORMATION = 255   # planning.costmap's value, repeated: control must not import planning
 _TINY = 1e-9
 
 
@@ -70,21 +71,6 @@ class FollowerSettings:
     lookahead_max_m: float = 0.9         # TurtleBot3s never reach it (1.5 s x 0.26 m/s =
                                          # 0.39 m); caps a TurtleBot2's corner cutting
     lookahead_time_s: float = 1.5        # L_d = this x measured speed, between min and max
-    progress_window_m: float = 1.0       # closest-point search this far past the last progress:
-                                         # covers a cut corner, not the other leg of a U-turn
-    # turning in place: a differential drive turns on the spot for free, a tight arc sweeps
-    # a band beside the path
-    rotate_threshold_rad: float = 1.047  # 60 deg: beyond it the arc's radius is < D / sqrt(3)
-    rotate_speed_max_radps: float = 0.8  # a 5 Hz lidar sweep smears <= 0.16 rad at this rate
-                                         # (the supervisor's spin: 0.6)
-    rotate_speed_min_radps: float = 0.2  # beats wheel stiction; 0.02 rad per 10 Hz step, far
-                                         # below 2 x yaw_goal_tolerance_rad: no chatter
-    rotate_gain_per_s: float = 1.5       # w = gain x heading error; gain x 0.1 s << 1: no
-                                         # overshoot at a 10 Hz control rate
-    # goal
-    xy_goal_tolerance_m: float = 0.1     # under the smallest robot radius (0.105 m); seed 003's
-                                         # 0.05 m is one 5 cm cell, which odometry noise defeats
-    yaw_goal_tolerance_rad: float = 0.1  # seed 003's angle_tolerance (5.7 deg)
     # speed near obstacles: v x (1 - (1 - f) c / 252) for cost c under the robot
     near_obstacle_speed_fraction: float = 0.5   # f: half speed when touching the inscribed
                                          # band, ~0.92 in the middle of a 1 m corridor
@@ -108,163 +94,53 @@ class FollowerSettings:
 
     def validate(self, src: str) -> None:
         positive(src, self, "lookahead_min_m", "lookahead_max_m", "lookahead_time_s",
-                 "progress_window_m", "rotate_threshold_rad", "rotate_speed_max_radps",
-                 "rotate_speed_min_radps", "rotate_gain_per_s", "xy_goal_tolerance_m",
-                 "yaw_goal_tolerance_rad", "near_obstacle_speed_fraction", "collision_horizon_s",
+                 "near_obstacle_speed_fraction", "collision_horizon_s",
                  "collision_stop_distance_m", "collision_margin_m", "corner_tolerance_m",
                  "align_tolerance_rad")
         require(self.corner_cut_clearance_m >= 0, src, "corner_cut_clearance_m", "must be >= 0")
         require(self.lookahead_min_m <= self.lookahead_max_m, src, "lookahead_max_m",
                 f"must be >= lookahead_min_m ({self.lookahead_min_m})")
-        require(self.rotate_threshold_rad <= math.pi, src, "rotate_threshold_rad", "must be <= pi")
-        require(self.rotate_speed_min_radps <= self.rotate_speed_max_radps, src,
-                "rotate_speed_min_radps", f"must be <= rotate_speed_max_radps "
-                f"({self.rotate_speed_max_radps})")
-        require(self.yaw_goal_tolerance_rad < math.pi, src, "yaw_goal_tolerance_rad",
-                "must be < pi")
         require(self.near_obstacle_speed_fraction <= 1.0, src, "near_obstacle_speed_fraction",
                 "must be in (0, 1]")
-
-
-class _Track:
-    """A polyline with arc-length bookkeeping: point at arc length s, closest point in a window."""
-
-    def __init__(self, points: np.ndarray):
-        self.points = points                               # (n, 2), no repeated neighbours
-        self.seg = np.diff(points, axis=0)                 # (n - 1, 2)
-        self.seg_len = np.hypot(self.seg[:, 0], self.seg[:, 1])
-        self.s = np.concatenate(([0.0], np.cumsum(self.seg_len)))
-        self.length = float(self.s[-1])
-
-    @property
-    def goal(self) -> np.ndarray:
-        return self.points[-1]
-
-    def point_at(self, s: float) -> np.ndarray:
-        if len(self.seg_len) == 0:
-            return self.points[0]
-        s = min(max(s, 0.0), self.length)
-        i = min(int(np.searchsorted(self.s, s, side="right")) - 1, len(self.seg_len) - 1)
-        return self.points[i] + (s - self.s[i]) / self.seg_len[i] * self.seg[i]
-
-    def closest(self, xy: np.ndarray, s_lo: float, s_hi: float) -> float:
-        """Arc length of the path point closest to ``xy`` among those with s in [s_lo, s_hi]."""
-        if len(self.seg_len) == 0:
-            return 0.0
-        start, end = self.s[:-1], self.s[1:]
-        t = ((xy - self.points[:-1]) * self.seg).sum(axis=1) / self.seg_len
-        # the distance along a segment is convex in s: clamping the projection is the window's min
-        lo, hi = np.maximum(start, s_lo), np.minimum(end, s_hi)
-        inside = lo <= hi
-        s_proj = np.clip(start + t, lo, np.where(inside, hi, lo))
-        pts = self.points[:-1] + ((s_proj - start) / self.seg_len)[:, None] * self.seg
-        d2 = ((pts - xy) ** 2).sum(axis=1)
-        d2[~inside] = np.inf
-        return float(s_proj[int(np.argmin(d2))])           # ties: the earliest
-
-    def progress(self, xy: np.ndarray, last_m: Optional[float], window_m: float) -> float:
-        """The robot's progress along the path: the closest point to ``xy``, searched over the
-        whole path the first time (``last_m`` None), then only forward within ``window_m`` of
-        the last progress (it never decreases: a U-turn's other leg is never taken)."""
-        if last_m is None:
-            return self.closest(xy, 0.0, self.length)
-        return self.closest(xy, last_m, last_m + window_m)
-
-
-class _Grid:
-    """Occupancy and costmap lookups in map coordinates; off the grid reads as unknown."""
-
-    def __init__(self, occupancy: np.ndarray, costmap: np.ndarray, resolution: float,
-                 origin: tuple):
-        self.occ, self.cost, self.res = occupancy, costmap, resolution
-        self.ox, self.oy = float(origin[0]), float(origin[1])
-
-    @staticmethod
-    def make(occupancy, costmap, resolution, origin) -> Optional["_Grid"]:
-        try:
-            occ, cost = np.asarray(occupancy), np.asarray(costmap)
-            res, ox, oy = float(resolution), float(origin[0]), float(origin[1])
-        except (TypeError, ValueError, IndexError):
-            return None
-        if occ.ndim != 2 or occ.size == 0 or cost.shape != occ.shape \
-                or not (math.isfinite(res) and res > 0) \
-                or not (math.isfinite(ox) and math.isfinite(oy)):
-            return None
-        return _Grid(occ.astype(np.int8, copy=False), cost, res, (ox, oy))
-
-    def _cells(self, xs: np.ndarray, ys: np.ndarray) -> tuple:
-        rows, cols = points_to_cells(np.stack([xs, ys], axis=-1), self.res, (self.ox, self.oy))
-        return rows, cols, inside(rows, cols, self.occ.shape)
-
-    def lookup(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        """Costs at the finite points (xs, ys) m, map frame (off the grid: NO_INFORMATION)."""
-        rows, cols, on_grid = self._cells(xs, ys)
-        out = np.full(rows.shape, NO_INFORMATION, dtype=np.int32)
-        out[on_grid] = self.cost[rows[on_grid], cols[on_grid]]
-        return out
-
-    def occupancy(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
-        """Occupancy at the finite points (xs, ys) m (off the grid: -1, unknown)."""
-        rows, cols, on_grid = self._cells(xs, ys)
-        out = np.full(rows.shape, -1, dtype=np.int32)
-        out[on_grid] = self.occ[rows[on_grid], cols[on_grid]]
-        return out
-
-
-def _clean_path(path) -> Optional[np.ndarray]:
-    """Finite (n, 2) waypoints without repeated neighbours, or None if fewer than 2 were given."""
-    try:
-        p = np.asarray(path, dtype=float)
-    except (TypeError, ValueError):
-        return None
-    if p.ndim != 2 or p.shape[1] != 2:
-        return None
-    p = p[np.isfinite(p).all(axis=1)]
-    if len(p) < 2:
-        return None
-    keep = np.ones(len(p), bool)
-    keep[1:] = (np.diff(p, axis=0) != 0).any(axis=1)
-    return p[keep]          # one point if all were equal: a path to that point
 
 
 class PurePursuit:
     """Adaptive pure pursuit with goal deceleration, cost slowdown, an arc collision check with
     the robot's body and in-place turns on tight corners."""
 
-    def __init__(self, settings: FollowerSettings, robot: RobotSpec):
+    def __init__(self, settings: FollowerSettings, robot: RobotSpec,
+                 tracking: Optional[TrackingSettings] = None):
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self.tracker = PathTracker(TrackingSettings() if tracking is None else tracking, robot,
+                                   self.body)
         self._clock = PeriodClock(0.1)   # the control period from the steps' times
         self.reset()
 
     def reset(self) -> None:
-        self._track: Optional[_Track] = None
-        self._progress_m: Optional[float] = None   # arc length of the closest point so far
-                                                   # (never decreases); None: not located yet
-        self._xy_reached = False        # latched once within xy_goal_tolerance_m
+        self.tracker.reset()
         self._clock.reset()
 
     # ------------------------------------------------------------------ the step
     def compute(self, inp: ControlInput) -> ControlOutput:
-        cfg = self.settings
-        track = self._follow(inp.path)
+        cfg, tracker = self.settings, self.tracker
+        track = tracker.follow(inp.path)
         if track is None:
+            self.reset()
             return ControlOutput(0.0, 0.0, NO_PATH)
-        try:
-            x, y, yaw = (float(v) for v in inp.pose[:3])
-        except (TypeError, ValueError):
-            x = y = yaw = math.nan
-        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
+        grid = Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
         if grid is None:                                 # cannot judge safety: do not move
             return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable map")
-        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+        pose = finite(inp.pose, 3)
+        if pose is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
+        x, y, yaw = pose
         xy = np.array([x, y])
         period_s = self._clock(inp.now_s)
 
-        self._progress_m = track.progress(xy, self._progress_m, cfg.progress_window_m)
-        remaining_m = track.length - self._progress_m
+        progress_m = tracker.advance(xy)
+        remaining_m = track.length - progress_m
         d_goal_xy = float(np.hypot(*(track.goal - xy)))
         goal_tuple = (float(track.goal[0]), float(track.goal[1]))
 
@@ -273,23 +149,15 @@ class PurePursuit:
         start_cost = int(grid.lookup(np.array([x]), np.array([y]))[0])
 
         # 2. goal: latched xy tolerance, then the heading
-        tol = cfg.xy_goal_tolerance_m
-        if self._xy_reached or (d_goal_xy <= tol and remaining_m <= tol):
-            self._xy_reached = True
-            goal_yaw = inp.goal_yaw
-            if goal_yaw is None or not math.isfinite(goal_yaw):
-                return ControlOutput(0.0, 0.0, ARRIVED, goal_tuple)
-            err = wrap_angle(float(goal_yaw) - yaw)
-            if abs(err) <= cfg.yaw_goal_tolerance_rad:
-                return ControlOutput(0.0, 0.0, ARRIVED, goal_tuple)
-            return self._turn(inp, (x, y, yaw), err, goal_tuple, "the goal's heading")
+        if tracker.at_goal(d_goal_xy, remaining_m):
+            return tracker.arrive(inp, pose, goal_tuple)
 
         # tight corners: stop on one, turn to the next segment there, drive on
         corner_s, next_dir = self._tight_corner(inp, track, xy)
         if next_dir is not None:
             err = wrap_angle(math.atan2(next_dir[1], next_dir[0]) - yaw)
-            if abs(err) > cfg.align_tolerance_rad and self.body.turn_clear(inp, (x, y, yaw), err):
-                return ControlOutput(0.0, self._turn_rate(err), ROTATING, (float(x), float(y)))
+            if abs(err) > cfg.align_tolerance_rad and self.body.turn_clear(inp, pose, err):
+                return ControlOutput(0.0, tracker.turn_rate(err), ROTATING, (float(x), float(y)))
             # (a turn that is not clear: the arc below, checked as ever, or "blocked")
 
         # 3. carrot at L_d beyond the closest point; past a tight corner ahead, on the line of
@@ -297,8 +165,8 @@ class PurePursuit:
         # corner: v <= the distance left / the control period)
         stop = None if corner_s is None else (corner_s, track.point_at(corner_s),
                                               track.seg[int(np.searchsorted(track.s, corner_s)) - 1])
-        stop_m = corner_s - self._progress_m if corner_s is not None else math.inf
-        v_meas = float(inp.velocity[0]) if _finite_first(inp.velocity) else 0.0
+        stop_m = corner_s - progress_m if corner_s is not None else math.inf
+        v_meas = (finite(inp.velocity, 1) or (0.0,))[0]
         lookahead_m = min(max(cfg.lookahead_time_s * abs(v_meas), cfg.lookahead_min_m),
                           cfg.lookahead_max_m)
         d_goal_m = max(remaining_m, d_goal_xy)
@@ -319,21 +187,21 @@ class PurePursuit:
                 # then runs along the plan.
                 near = why[0]
                 alpha = wrap_angle(math.atan2(near[1] - y, near[0] - x) - yaw)
-                if abs(alpha) > cfg.yaw_goal_tolerance_rad \
-                        and self.body.turn_clear(inp, (x, y, yaw), alpha):
-                    return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, near)
+                if abs(alpha) > tracker.settings.yaw_goal_tolerance_rad \
+                        and self.body.turn_clear(inp, pose, alpha):
+                    return ControlOutput(0.0, tracker.turn_rate(alpha), ROTATING, near)
                 return ControlOutput(0.0, 0.0, BLOCKED, blocked[0], blocked[1])
             lookahead_m = max(0.5 * lookahead_m, grid.res)
 
-    def _toward(self, inp: ControlInput, track: "_Track", grid: "_Grid", x: float, y: float,
+    def _toward(self, inp: ControlInput, track: Track, grid: Grid, x: float, y: float,
                 yaw: float, lookahead_m: float, d_goal_m: float, start_cost: int,
                 v_cap: float, stop: Optional[tuple]) -> tuple:
         """Steps 3-7 for one look-ahead distance: (the command, None), or (None, (carrot,
         why blocked)) when less than ``collision_stop_distance_m`` of its arc is free or the
         turn toward the carrot is not clear. ``stop``: (arc length, point, direction of the
         segment into it) of the tight corner ahead, or None."""
-        cfg = self.settings
-        s_carrot = self._progress_m + lookahead_m
+        cfg, tracker = self.settings, self.tracker
+        s_carrot = tracker.progress_m + lookahead_m
         if stop is not None and s_carrot > stop[0]:     # on the line into the corner, extended
             along = stop[2] / max(float(np.hypot(*stop[2])), _TINY)
             carrot = stop[1] + (s_carrot - stop[0]) * along
@@ -345,13 +213,13 @@ class PurePursuit:
         alpha = wrap_angle(math.atan2(dy, dx) - yaw) if dist_m > _TINY else 0.0
 
         # 4. far off heading: turn in place first, where the turn is clear
-        if abs(alpha) > cfg.rotate_threshold_rad:
+        if abs(alpha) > tracker.settings.rotate_threshold_rad:
             if not self.body.turn_clear(inp, (x, y, yaw), alpha):
                 return None, (carrot_tuple, f"turning {alpha:.2f} rad in place toward "
                               f"({carrot[0]:.2f}, {carrot[1]:.2f}) would bring the body within "
                               f"{cfg.collision_margin_m} m of an obstacle; robot at "
                               f"({x:.2f}, {y:.2f}, {yaw:.2f} rad)")
-            return ControlOutput(0.0, self._turn_rate(alpha), ROTATING, carrot_tuple), None
+            return ControlOutput(0.0, tracker.turn_rate(alpha), ROTATING, carrot_tuple), None
 
         # 5. curvature of the arc through the carrot, 6. speed limits
         kappa = 2.0 * math.sin(alpha) / dist_m if dist_m > _TINY else 0.0
@@ -360,7 +228,7 @@ class PurePursuit:
         # 7. look-ahead collision check along the arc
         horizon_m = max(v * cfg.collision_horizon_s, cfg.collision_stop_distance_m)
         if stop is not None:       # it stops on the corner: the poses past it are not checked
-            horizon_m = min(horizon_m, stop[0] - self._progress_m + cfg.corner_tolerance_m)
+            horizon_m = min(horizon_m, stop[0] - tracker.progress_m + cfg.corner_tolerance_m)
         free_m, hit_xy, what = self._free_arc(inp, grid, x, y, yaw, kappa, horizon_m, track.goal)
         if free_m is not None:
             if free_m < cfg.collision_stop_distance_m:
@@ -374,22 +242,7 @@ class PurePursuit:
         return ControlOutput(float(v), float(w), FOLLOWING, carrot_tuple), None
 
     # ------------------------------------------------------------------ pieces
-    def _follow(self, path) -> Optional[_Track]:
-        """The track for ``path``; a different path than last time restarts progress."""
-        points = _clean_path(path)
-        if points is None:
-            self.reset()
-            return None
-        old = self._track
-        if old is None or old.points.shape != points.shape \
-                or not np.array_equal(old.points, points):
-            self._track = _Track(points)
-            self._xy_reached = False
-            self._progress_m = None     # a new path is searched whole once, then only forward
-        return self._track
-
-
-    def _tight_corner(self, inp: ControlInput, track: "_Track", xy: np.ndarray) -> tuple:
+    def _tight_corner(self, inp: ControlInput, track: Track, xy: np.ndarray) -> tuple:
         """(arc length of the next tight corner ahead or None, the direction of the segment
         after the tight corner the robot stands on or None). Corners: the start and every
         interior point; tight: the turning disc does not clear obstacles by
@@ -399,7 +252,7 @@ class PurePursuit:
         cfg = self.settings
         if len(track.points) < 2:
             return None, None
-        s = self._progress_m
+        s = self.tracker.progress_m
         ahead = track.s[:-1] >= s - cfg.corner_tolerance_m
         ahead[0] = s <= cfg.corner_tolerance_m
         idx = np.flatnonzero(ahead)
@@ -437,24 +290,7 @@ class PurePursuit:
         f = self.settings.near_obstacle_speed_fraction
         return v * (1.0 - (1.0 - f) * min(cost, 252) / 252.0)
 
-    def _turn_rate(self, err: float) -> float:
-        """w = gain x error, between the minimum and maximum turn rates, with the error's sign."""
-        cfg = self.settings
-        top = min(cfg.rotate_speed_max_radps, self.robot.max_angular_radps)
-        mag = min(max(cfg.rotate_gain_per_s * abs(err), cfg.rotate_speed_min_radps), top)
-        return math.copysign(mag, err)
-
-    def _turn(self, inp: ControlInput, pose: tuple, err: float, target: tuple,
-              what: str) -> ControlOutput:
-        """Turn in place by ``err`` toward ``what`` if the turn is clear, else "blocked"."""
-        if self.body.turn_clear(inp, pose, err):
-            return ControlOutput(0.0, self._turn_rate(err), ROTATING, target)
-        return ControlOutput(0.0, 0.0, BLOCKED, target, (
-            f"turning {err:.2f} rad in place to {what} would bring the body within "
-            f"{self.settings.collision_margin_m} m of an obstacle; robot at ({pose[0]:.2f}, "
-            f"{pose[1]:.2f}, {pose[2]:.2f} rad)"))
-
-    def _free_arc(self, inp: ControlInput, grid: _Grid, x: float, y: float, yaw: float,
+    def _free_arc(self, inp: ControlInput, grid: Grid, x: float, y: float, yaw: float,
                   kappa: float, length_m: float, goal: np.ndarray) -> tuple:
         """(free arc length before the first colliding pose within ``length_m``, that pose's
         (x, y), what it hits), or (None, None, None) when the arc is free.
@@ -472,7 +308,8 @@ class PurePursuit:
         half = 0.5 * kappa * s
         chord = s * np.sinc(half / math.pi)                # 2 sin(kappa s / 2) / kappa, exact arc
         xs, ys = x + chord * np.cos(yaw + half), y + chord * np.sin(yaw + half)
-        at_goal = np.flatnonzero(np.hypot(xs - goal[0], ys - goal[1]) <= cfg.xy_goal_tolerance_m)
+        at_goal = np.flatnonzero(np.hypot(xs - goal[0], ys - goal[1])
+                                 <= self.tracker.settings.xy_goal_tolerance_m)
         if at_goal.size:
             n = at_goal[0] + 1
             s, xs, ys, half = s[:n], xs[:n], ys[:n], half[:n]
@@ -494,9 +331,3 @@ class PurePursuit:
         what = "an obstacle within the body's margin" if near[k] else "unknown cell"
         return float(s[k] - ds), (float(xs[k]), float(ys[k])), what
 
-
-def _finite_first(values) -> bool:
-    try:
-        return math.isfinite(float(values[0]))
-    except (TypeError, ValueError, IndexError):
-        return False

@@ -10,9 +10,10 @@ One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
               velocity, a map smaller than the rollouts' reach (2 x v_max x horizon), the
               robot's or the goal's cell an obstacle: "blocked"; each with a one-line detail
               and a zero command (the warm start is dropped).
-2. progress   the path point nearest the robot, searched forward only (as the pure pursuit).
-3. goal       within ``xy_goal_tolerance_m`` (latched): turn in place to ``goal_yaw`` where
-              BodyCheck.turn_clear allows, then "arrived".
+2. progress   the path point nearest the robot, searched forward only (the shared
+              ``tracking.PathTracker``).
+3. goal       within ``xy_goal_tolerance_m`` (the tracker's latch): turn in place to
+              ``goal_yaw`` where BodyCheck.turn_clear allows, then "arrived".
    heading    the path ``rotate_lookahead_m`` ahead lies more than ``rotate_threshold_rad`` off
               the heading: turn in place toward it first, where the turn is clear (Nav2's
               rotation shim: sampled rollouts rarely hold a turn long enough to face about,
@@ -40,8 +41,9 @@ One control step, ``MppiController.compute(ControlInput) -> ControlOutput``:
 API (also for Tube MPPI, control/tube_mppi.py)
 ----------------------------------------------
 ``MppiSettings``   frozen dataclass, config/mppi.yaml; ``validate(src)``.
-``MppiController(settings: MppiSettings, robot: RobotSpec, seed: Optional[int] = None)``
-    (seed None: settings.seed)
+``MppiController(settings: MppiSettings, robot: RobotSpec,
+               tracking: Optional[TrackingSettings] = None, seed: Optional[int] = None)``
+    (tracking None: TrackingSettings' defaults; seed None: settings.seed)
     ``reset()``                           forget the path, the warm start and the RNG state
                                           (re-seeded: runs are repeatable)
     ``compute(inp: ControlInput) -> ControlOutput``   the Controller contract
@@ -74,7 +76,7 @@ call (override it to put the ancillary controller around it; compute() then chec
 commands the plan it returns); ``_rotation_shim(inp, pose, goal) -> ControlOutput | None`` turns
 in place before any iteration when the path lies more than ``rotate_threshold_rad`` off the
 heading: a subclass whose ``_iterate`` must run every step overrides it to return None (or
-sets ``rotate_threshold_rad`` >= pi).
+sets the tracking's ``rotate_threshold_rad`` to pi).
 Settings for seed 000's experiments: ``dataclasses.replace(MppiSettings(), ...)``, e.g. their
 noise on the sampling (``noise_std_v_mps``, ``noise_std_w_radps``), ``model_dt_s``,
 ``time_steps``; the robot's limits come from the RobotSpec (a RobotSpec with other limits
@@ -93,10 +95,10 @@ from .. import _native
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec, footprint_args
-from . import (ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput,
-               PeriodClock)
-from .follower import _clean_path, _Grid, _Track
+from .base import (BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlMarkers, ControlOutput,
+                   PeriodClock)
 from .footprint import BodyCheck
+from .tracking import Grid, PathTracker, TrackingSettings, finite
 
 
 WINDOW_SLACK_M = 0.5   # m: the robot may move this far from the distance field's window centre
@@ -146,16 +148,8 @@ class MppiSettings:
     control_rate_hz: float = 10.0        # Hz, the period assumed until two calls give it
     path_spacing_m: float = 0.05         # m, the global path densified to this (its waypoints
                                          # are corners)
-    progress_window_m: float = 1.0       # m of path past the last progress searched for the
-                                         # nearest point (never a later leg of a U-turn)
-    xy_goal_tolerance_m: float = 0.1     # m, latched: then only the heading is corrected
-    yaw_goal_tolerance_rad: float = 0.1  # rad
-    rotate_threshold_rad: float = 1.047  # rad, the path this far off the heading: turn in place
-                                         # first (60 deg, the follower's)
-    rotate_lookahead_m: float = 0.3      # m, the path point the heading is measured to
-    rotate_speed_max_radps: float = 0.8  # rad/s, turning in place (the follower's)
-    rotate_speed_min_radps: float = 0.2  # rad/s, beats wheel stiction
-    rotate_gain_per_s: float = 1.5       # 1/s, in-place turn rate = gain x heading error
+    rotate_lookahead_m: float = 0.3      # m, the path point the heading is measured to (turning
+                                         # in place past the tracking's rotate_threshold_rad)
     check_horizon_s: float = 0.5         # s of the chosen trajectory checked with the exact body
                                          # check before a command goes out (5 periods at 10 Hz)
     stall_distance_m: float = 0.05       # m, a chosen trajectory that moves less than this and
@@ -171,10 +165,7 @@ class MppiSettings:
         positive(src, self, "batch_size", "time_steps", "model_dt_s", "temperature",
                  "noise_knot_steps", "threads", "goal_region_m", "outline_spacing_m",
                  "path_resolution_m", "obstacle_band_m", "collision_margin_m", "collision_cost",
-                 "control_rate_hz", "path_spacing_m", "progress_window_m", "xy_goal_tolerance_m",
-                 "yaw_goal_tolerance_rad", "rotate_threshold_rad", "rotate_lookahead_m",
-                 "rotate_speed_max_radps", "rotate_speed_min_radps", "rotate_gain_per_s",
-                 "check_horizon_s", "stall_distance_m", "stall_turn_rad", "stall_time_s",
+                 "control_rate_hz", "path_spacing_m", "rotate_lookahead_m", "check_horizon_s", "stall_distance_m", "stall_turn_rad", "stall_time_s",
                  "progress_timeout_s")
         require(self.batch_size >= 2 and self.time_steps >= 2, src, "batch_size",
                 "batch_size and time_steps must be >= 2")
@@ -188,8 +179,6 @@ class MppiSettings:
         require(self.obstacle_band_m >= self.collision_margin_m, src, "obstacle_band_m",
                 "must be >= collision_margin_m")
         require(0 <= self.seed < 2 ** 32, src, "seed", "must be in [0, 2^32)")
-        require(self.rotate_speed_min_radps <= self.rotate_speed_max_radps, src,
-                "rotate_speed_min_radps", "must be <= rotate_speed_max_radps")
 
     def native_config(self) -> dict:
         """The keys the C++ optimizer takes (``_native.mppi_config_keys()``), seed excluded."""
@@ -219,10 +208,13 @@ def _seconds(now_s) -> Optional[float]:
 class MppiController:
     """MPPI behind the Controller contract (module docstring)."""
 
-    def __init__(self, settings: MppiSettings, robot: RobotSpec, seed: Optional[int] = None):
+    def __init__(self, settings: MppiSettings, robot: RobotSpec,
+                 tracking: Optional[TrackingSettings] = None, seed: Optional[int] = None):
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self.tracker = PathTracker(TrackingSettings() if tracking is None else tracking, robot,
+                                   self.body)
         self._opt = _native.MppiOptimizer(
             settings.native_config(), max_linear_mps=robot.max_linear_mps,
             max_angular_radps=robot.max_angular_radps,
@@ -238,11 +230,10 @@ class MppiController:
     # ------------------------------------------------------------------ contract
     def reset(self) -> None:
         self._opt.reset()
-        self._track: Optional[_Track] = None
+        self.tracker.reset()
+        self._dense_of = None                      # the track _dense was made for
         self._dense: Optional[np.ndarray] = None   # the track every path_spacing_m (n, 2)
         self._dense_s: Optional[np.ndarray] = None
-        self._progress_m: Optional[float] = None
-        self._xy_reached = False
         self._clock.reset()
         self._mark: Optional[tuple] = None          # (time s, x, y, yaw) where the robot last moved
         self._still_since: Optional[float] = None   # time s the chosen trajectory began standing still
@@ -254,15 +245,16 @@ class MppiController:
         period_s = self._clock(inp.now_s)
         if not self._follow(inp.path):
             return self._stop(NO_PATH, "the path has fewer than two usable waypoints")
-        track = self._track
+        tracker = self.tracker
+        track = tracker.track
         goal = (float(track.goal[0]), float(track.goal[1]))
-        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
+        grid = Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
         if grid is None:
             return self._stop(BLOCKED, "no usable map", goal)
-        pose = _finite(inp.pose, 3)
+        pose = finite(inp.pose, 3)
         if pose is None:
             return self._stop(BLOCKED, "the pose is not finite", goal)
-        velocity = _finite(inp.velocity, 2)
+        velocity = finite(inp.velocity, 2)
         if velocity is None:
             return self._stop(BLOCKED, "the measured velocity is not finite", goal)
         x, y, yaw = pose
@@ -279,12 +271,9 @@ class MppiController:
                               "obstacle", goal)
 
         # the goal: latched xy tolerance, then the heading, turning in place
-        self._advance(np.array([x, y]))
-        remaining = track.length - self._progress_m
+        remaining = track.length - tracker.advance(np.array([x, y]))
         d_goal = math.hypot(goal[0] - x, goal[1] - y)
-        if self._xy_reached or (d_goal <= cfg.xy_goal_tolerance_m
-                                and remaining <= cfg.xy_goal_tolerance_m):
-            self._xy_reached = True
+        if tracker.at_goal(d_goal, remaining):
             return self._turn_to_goal(inp, pose, goal)
         turn = self._rotation_shim(inp, pose, goal)
         if turn is not None:
@@ -310,7 +299,7 @@ class MppiController:
                               f"robot at ({x:.2f}, {y:.2f}, {yaw:.2f} rad)", goal)
         moved = np.hypot(*(plan.states[:, :2] - plan.states[0, :2]).T).max()
         turned = np.abs(plan.states[:, 2] - plan.states[0, 2]).max()
-        near_goal = d_goal <= cfg.xy_goal_tolerance_m + cfg.stall_distance_m   # a short way left
+        near_goal = d_goal <= tracker.settings.xy_goal_tolerance_m + cfg.stall_distance_m  # a short way left
         still = moved < cfg.stall_distance_m and turned < cfg.stall_turn_rad and not near_goal
         if self._stood_still(still, inp.now_s):
             return self._stop(BLOCKED, f"the best of {k} rollouts has stood still for "
@@ -326,11 +315,11 @@ class MppiController:
         Raises ValueError on a path with fewer than two usable points or non-finite input."""
         if not self._follow(path):
             raise ValueError("MppiController.optimize: the path has fewer than two usable points")
-        pose = _finite(state, 3)
-        speeds = _finite(velocity, 2)
+        pose = finite(state, 3)
+        speeds = finite(velocity, 2)
         if pose is None or speeds is None:
             raise ValueError("MppiController.optimize: state and velocity must be finite")
-        self._advance(np.array(pose[:2]))
+        self.tracker.advance(np.array(pose[:2]))
         if period_s is None:
             period_s = 1.0 / self.settings.control_rate_hz
         return self._iterate(pose, speeds, goal_yaw, occupancy, float(resolution),
@@ -359,7 +348,7 @@ class MppiController:
         self._set_map(occupancy, resolution, origin, pose[:2])
         shift = max(0, int(round(period_s / cfg.model_dt_s)))
         gy = float(goal_yaw) if goal_yaw is not None and math.isfinite(goal_yaw) else None
-        goal = self._track.goal
+        goal = self.tracker.track.goal
         # the speeds now, within the limits (a measured speed may overshoot them a little)
         v0 = min(max(velocity[0], cfg.min_linear_mps), self.robot.max_linear_mps)
         w0 = min(max(velocity[1], -self.robot.max_angular_radps), self.robot.max_angular_radps)
@@ -396,8 +385,9 @@ class MppiController:
             self._mark = (now, x, y, yaw)
             return ""
         if now - m[0] > cfg.progress_timeout_s:
+            left_m = self.tracker.track.length - self.tracker.progress_m
             return (f"moved < {cfg.stall_distance_m} m and turned < {cfg.stall_turn_rad} rad in "
-                    f"{now - m[0]:.1f} s, {self._track.length - self._progress_m:.2f} m of path left")
+                    f"{now - m[0]:.1f} s, {left_m:.2f} m of path left")
         return ""
 
     def _set_map(self, occupancy, resolution: float, origin: tuple, centre) -> None:
@@ -426,72 +416,51 @@ class MppiController:
 
     def _follow(self, path) -> bool:
         """Track ``path`` (a new one restarts progress); False if it has < 2 usable points."""
-        points = _clean_path(path)
-        if points is None or len(points) < 2:
-            self._track = None
+        track = self.tracker.follow(path)
+        if track is None or len(track.points) < 2:
+            self.tracker.reset()
             return False
-        old = self._track
-        if old is None or old.points.shape != points.shape \
-                or not np.array_equal(old.points, points):
-            track = _Track(points)
+        if track is not self._dense_of:
             # densified: every path_spacing_m, and every corner exactly
             s = np.union1d(np.arange(0.0, track.length, self.settings.path_spacing_m), track.s)
-            self._track, self._dense_s = track, s
-            self._dense = np.column_stack([np.interp(s, track.s, points[:, 0]),
-                                           np.interp(s, track.s, points[:, 1])])
-            self._progress_m = None
-            self._xy_reached = False
+            self._dense_of, self._dense_s = track, s
+            self._dense = np.column_stack([np.interp(s, track.s, track.points[:, 0]),
+                                           np.interp(s, track.s, track.points[:, 1])])
         return True
-
-    def _advance(self, xy: np.ndarray) -> None:
-        """Progress: the nearest path point, only forward within progress_window_m."""
-        track = self._track
-        self._progress_m = track.progress(xy, self._progress_m, self.settings.progress_window_m)
 
     def _local_path(self) -> np.ndarray:
         """The dense path from the progress point over two reaches and the goal region."""
-        s0 = self._progress_m
+        s0 = self.tracker.progress_m
         s1 = s0 + 2.0 * self._opt.reach_m + self.settings.goal_region_m
         inner = (self._dense_s > s0) & (self._dense_s <= s1)
-        first = self._track.point_at(s0)
+        first = self.tracker.track.point_at(s0)
         return np.ascontiguousarray(np.vstack([first[None, :], self._dense[inner]]))
 
     def _rotation_shim(self, inp: ControlInput, pose: tuple,
                        goal: tuple) -> Optional[ControlOutput]:
         """Turn in place toward the path ``rotate_lookahead_m`` ahead when it lies more than
-        ``rotate_threshold_rad`` off the heading and the turn is clear, else None (MPPI drives).
-        ``rotate_threshold_rad`` >= pi disables it."""
-        cfg = self.settings
+        the tracking's ``rotate_threshold_rad`` off the heading and the turn is clear, else None
+        (MPPI drives). ``rotate_threshold_rad`` = pi disables it."""
+        tracker = self.tracker
         x, y, yaw = pose
-        ahead = self._track.point_at(self._progress_m + cfg.rotate_lookahead_m)
+        ahead = tracker.track.point_at(tracker.progress_m + self.settings.rotate_lookahead_m)
         err = wrap_angle(math.atan2(ahead[1] - y, ahead[0] - x) - yaw)
-        if abs(err) <= cfg.rotate_threshold_rad or not self.body.turn_clear(inp, pose, err):
+        if abs(err) <= tracker.settings.rotate_threshold_rad \
+                or not self.body.turn_clear(inp, pose, err):
             return None
         self._opt.reset()                     # the warm start was for the other heading
         self._mark = None
         self.trajectory = np.asarray([pose], float)
-        return ControlOutput(0.0, self._turn_rate(err), ROTATING, goal)
+        return ControlOutput(0.0, tracker.turn_rate(err), ROTATING, goal)
 
     def _turn_to_goal(self, inp: ControlInput, pose: tuple, goal: tuple) -> ControlOutput:
-        cfg = self.settings
-        if inp.goal_yaw is None or not math.isfinite(inp.goal_yaw):
-            return self._stop(ARRIVED, "", goal)
-        err = wrap_angle(float(inp.goal_yaw) - pose[2])
-        if abs(err) <= cfg.yaw_goal_tolerance_rad:
-            return self._stop(ARRIVED, "", goal)
-        if not self.body.turn_clear(inp, pose, err):
-            return self._stop(BLOCKED, f"turning {err:.2f} rad in place to the goal's heading "
-                              f"would bring the body within {cfg.collision_margin_m} m of an "
-                              f"obstacle; robot at ({pose[0]:.2f}, {pose[1]:.2f})", goal)
+        """The tracker's arrival (the goal's heading, turning in place); a stop drops the warm
+        start as every stop does."""
+        out = self.tracker.arrive(inp, pose, goal)
+        if out.status != ROTATING:
+            return self._stop(out.status, out.detail, goal)
         self.trajectory = np.asarray([pose], float)
-        return ControlOutput(0.0, self._turn_rate(err), ROTATING, goal)
-
-    def _turn_rate(self, err: float) -> float:
-        """w = gain x error, between the minimum and maximum turn rates, with the error's sign."""
-        cfg = self.settings
-        top = min(cfg.rotate_speed_max_radps, self.robot.max_angular_radps)
-        return math.copysign(min(max(cfg.rotate_gain_per_s * abs(err), cfg.rotate_speed_min_radps),
-                                 top), err)
+        return out
 
     def _stop(self, status: str, detail: str, target=None) -> ControlOutput:
         """Zero command; the warm start is dropped (the next plan starts from rest)."""
@@ -509,15 +478,6 @@ class MppiController:
         return (min(max(v, self.settings.min_linear_mps), r.max_linear_mps),
                 min(max(w, -r.max_angular_radps), r.max_angular_radps))
 
-
-
-def _finite(values, n: int) -> Optional[tuple]:
-    """The first ``n`` values as floats if all are finite, else None."""
-    try:
-        out = tuple(float(v) for v in values[:n])
-    except (TypeError, ValueError, IndexError):
-        return None
-    return out if len(out) == n and all(math.isfinite(v) for v in out) else None
 
 
 def _densify(states: np.ndarray, step_m: float, radius_m: float) -> np.ndarray:

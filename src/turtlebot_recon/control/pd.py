@@ -11,8 +11,9 @@ One control step, ``PdController.compute(ControlInput) -> ControlOutput``:
 1. segment   the segment being driven (a new path starts at its first); its end is reached once
              the robot is within ``corner_tolerance_m`` of it along the segment (or past it):
              the next one starts, and both PD loops forget their last error (no derivative kick).
-2. goal      within ``xy_goal_tolerance_m`` of the path's end (latched): turn in place to
-             ``goal_yaw`` if one is given, then "arrived" (as the follower).
+2. goal      within ``xy_goal_tolerance_m`` of the path's end on its last segment (the shared
+             ``tracking.PathTracker``'s latch): turn in place to ``goal_yaw`` if one is given
+             (w = kp_ang e, at least rotate_speed_min_radps), then "arrived".
 3. errors    distance  d = how far the segment's end lies ahead along the segment;
              heading   e = bearing of the point ``lookahead_m`` ahead of the robot's projection
                            on the segment's line (extended past its end) from the robot's heading:
@@ -41,9 +42,9 @@ import numpy as np
 from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
-from . import ARRIVED, BLOCKED, FOLLOWING, NO_PATH, ROTATING, ControlInput, ControlOutput, PeriodClock
-from .follower import _clean_path, _Grid
+from .base import BLOCKED, FOLLOWING, NO_PATH, ControlInput, ControlOutput, PeriodClock
 from .footprint import BodyCheck
+from .tracking import Grid, PathTracker, Track, TrackingSettings, finite
 
 
 @dataclass(frozen=True)
@@ -56,13 +57,8 @@ class PdSettings:
     # driving or turning in place
     heading_tolerance_rad: float = 0.1   # seed 003's angle_tolerance: drive once this close
     heading_abort_rad: float = 0.3       # while driving, turn in place again past this
-    rotate_speed_min_radps: float = 0.2  # rad/s, in-place turns at least this (wheel stiction;
-                                         # 0.02 rad per 10 Hz period, far below the tolerance)
     lookahead_m: float = 0.3             # m, the heading aims this far ahead along the segment
     corner_tolerance_m: float = 0.02     # m, a segment's end is reached this close along it
-    # goal
-    xy_goal_tolerance_m: float = 0.1     # m, latched (seed 003's 0.05 is one cell: odometry noise)
-    yaw_goal_tolerance_rad: float = 0.1  # rad, when the goal has a yaw
     # look-ahead collision check (seed 003's is_colliding, with the body)
     collision_horizon_s: float = 1.5     # s of the command's arc checked
     collision_min_distance_m: float = 0.1   # m, at least this much of it (slow or starting)
@@ -71,9 +67,7 @@ class PdSettings:
 
     def validate(self, src: str) -> None:
         positive(src, self, "linear_kp_per_s", "angular_kp_per_s", "heading_tolerance_rad",
-                 "heading_abort_rad", "rotate_speed_min_radps", "lookahead_m",
-                 "corner_tolerance_m", "xy_goal_tolerance_m", "yaw_goal_tolerance_rad",
-                 "collision_horizon_s", "collision_min_distance_m", "collision_margin_m")
+                 "heading_abort_rad", "lookahead_m", "corner_tolerance_m", "collision_horizon_s", "collision_min_distance_m", "collision_margin_m")
         require(self.linear_kd >= 0, src, "linear_kd", "must be >= 0")
         require(self.angular_kd >= 0, src, "angular_kd", "must be >= 0")
         require(self.heading_abort_rad >= self.heading_tolerance_rad, src, "heading_abort_rad",
@@ -82,57 +76,57 @@ class PdSettings:
 
 
 class PdController:
-    """Segment by segment: turn in place to it, drive it with two PD loops, stop at its end."""
+    """Segment by segment: turn in place to it, drive it with two PD loops, stop at its end.
+    The path, the goal latch and the turn-in-place gate are the shared tracker's
+    (tracking.PathTracker); its progress is the segment, and its turns the PD loop's rate."""
 
-    def __init__(self, settings: PdSettings, robot: RobotSpec):
+    def __init__(self, settings: PdSettings, robot: RobotSpec,
+                 tracking: Optional[TrackingSettings] = None):
         self.settings = settings
         self.robot = robot
         self.body = BodyCheck(robot, settings.collision_margin_m)
+        self.tracker = PathTracker(TrackingSettings() if tracking is None else tracking, robot,
+                                   self.body)
         self._clock = PeriodClock(0.1)   # the control period from the steps' times
         self.reset()
 
     def reset(self) -> None:
-        self._points: Optional[np.ndarray] = None
+        self.tracker.reset()
+        self._restart()
+
+    def _restart(self) -> None:
+        """The first segment of a path, from rest."""
+        self._track: Optional[Track] = None    # the tracker's track this segment count is on
         self._segment = 0                      # driving from points[i] to points[i + 1]
-        self._xy_reached = False
         self._driving = False                  # inside the hysteresis band
         self._clock.reset()
         self._last_d: Optional[float] = None   # the errors of the last step (derivatives)
         self._last_e: Optional[float] = None
 
     def compute(self, inp: ControlInput) -> ControlOutput:
-        cfg = self.settings
+        cfg, tracker = self.settings, self.tracker
         points = self._follow(inp.path)
         if points is None:
             return ControlOutput(0.0, 0.0, NO_PATH, detail="fewer than two finite waypoints")
-        try:
-            x, y, yaw = (float(v) for v in inp.pose[:3])
-            v_meas = float(inp.velocity[0])
-        except (TypeError, ValueError, IndexError):
-            return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose or velocity is malformed")
-        grid = _Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
+        grid = Grid.make(inp.occupancy, inp.costmap, inp.resolution, inp.origin)
         if grid is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="no usable map")
-        if not all(map(math.isfinite, (x, y, yaw))):
+        pose = finite(inp.pose, 3)
+        if pose is None:
             return ControlOutput(0.0, 0.0, BLOCKED, detail="the pose is not finite")
-        if not math.isfinite(v_meas):
-            v_meas = 0.0                        # only the acceleration cap reads it
+        x, y, yaw = pose
+        v_meas = (finite(inp.velocity, 1) or (0.0,))[0]   # only the acceleration cap reads it
         period_s = self._clock(inp.now_s)
         xy = np.array([x, y])
         goal = (float(points[-1, 0]), float(points[-1, 1]))
         if grid.occupancy(np.array([x]), np.array([y]))[0] >= self.body.occupied_threshold:
             return ControlOutput(0.0, 0.0, BLOCKED, goal, "the robot's cell is an obstacle")
 
-        # 2. goal (latched), as the follower
-        if self._xy_reached or (self._segment == len(points) - 2
-                                and math.dist(xy, goal) <= cfg.xy_goal_tolerance_m):
-            self._xy_reached = True
-            if inp.goal_yaw is None or not math.isfinite(inp.goal_yaw):
-                return ControlOutput(0.0, 0.0, ARRIVED, goal)
-            err = wrap_angle(float(inp.goal_yaw) - yaw)
-            if abs(err) <= cfg.yaw_goal_tolerance_rad:
-                return ControlOutput(0.0, 0.0, ARRIVED, goal)
-            return self._rotate(inp, (x, y, yaw), err, None, period_s, goal, "the goal's heading")
+        # 2. goal (the tracker's latch): the path left counts as none on the last segment
+        on_last = self._segment == len(points) - 2
+        if tracker.at_goal(math.dist(xy, goal), 0.0 if on_last else math.inf):
+            return tracker.arrive(inp, pose, goal,
+                                  lambda err: self._turn_rate(err, cfg.angular_kp_per_s * err))
 
         # 1. the segment; 3. its errors
         while True:
@@ -158,7 +152,7 @@ class PdController:
         limit = cfg.heading_abort_rad if self._driving else cfg.heading_tolerance_rad
         if abs(e) > limit:
             self._driving = False
-            return self._rotate(inp, (x, y, yaw), e, w, period_s, carrot_t, "the segment")
+            return tracker.turn(inp, pose, e, carrot_t, "the segment", self._turn_rate(e, w))
         self._driving = True
         r = self.robot
         v = cfg.linear_kp_per_s * max(d, 0.0) + cfg.linear_kd * dd
@@ -174,23 +168,15 @@ class PdController:
         return ControlOutput(float(v), float(w), FOLLOWING, carrot_t)
 
     # ------------------------------------------------------------------ pieces
-    def _rotate(self, inp: ControlInput, pose: tuple, err: float, w: Optional[float],
-                period_s: float, target: tuple, what: str) -> ControlOutput:
-        """Turn in place by ``err`` (w from the PD loop, or proportional when None), at least
-        rotate_speed_min_radps, within the robot's limits, where the turn is clear."""
-        cfg = self.settings
-        if w is None:
-            w = cfg.angular_kp_per_s * err
-        if not self.body.turn_clear(inp, pose, err):
-            return ControlOutput(0.0, 0.0, BLOCKED, target, (
-                f"turning {err:.2f} rad in place to {what} would bring the body within "
-                f"{cfg.collision_margin_m} m of an obstacle; robot at ({pose[0]:.2f}, "
-                f"{pose[1]:.2f}, {pose[2]:.2f} rad)"))
-        top = self.robot.max_angular_radps
-        mag = min(max(abs(w) if w * err > 0 else 0.0, cfg.rotate_speed_min_radps), top)
-        return ControlOutput(0.0, math.copysign(mag, err), ROTATING, target)
+    def _turn_rate(self, err: float, w: float) -> float:
+        """PD's turn in place by ``err``: the loop's rate ``w`` (none when it turns the other
+        way), at least rotate_speed_min_radps, within the robot's limit (not the tracker's
+        rotate_speed_max_radps: seed 003's loop turns as fast as the robot can)."""
+        floor = self.tracker.settings.rotate_speed_min_radps
+        mag = min(max(abs(w) if w * err > 0 else 0.0, floor), self.robot.max_angular_radps)
+        return math.copysign(mag, err)
 
-    def _colliding(self, inp: ControlInput, grid: _Grid, x: float, y: float, yaw: float,
+    def _colliding(self, inp: ControlInput, grid: Grid, x: float, y: float, yaw: float,
                    v: float, w: float, max_m: float) -> Optional[tuple]:
         """(distance along the arc, (x, y), what) of the first colliding pose of arc (v, w)
         within max(v collision_horizon_s, collision_min_distance_m) (at most ``max_m``), or
@@ -223,13 +209,12 @@ class PdController:
 
     def _follow(self, path) -> Optional[np.ndarray]:
         """The path's points (no repeats); a different path restarts at its first segment."""
-        points = _clean_path(path)
-        if points is None or len(points) < 2:
+        track = self.tracker.follow(path)
+        if track is None or len(track.points) < 2:
             self.reset()
             return None
-        if self._points is None or self._points.shape != points.shape \
-                or not np.array_equal(self._points, points):
-            self.reset()
-            self._points = points
-        return self._points
+        if track is not self._track:
+            self._restart()
+            self._track = track
+        return track.points
 

@@ -3,7 +3,8 @@
 One control step, ``TubeMppiController.compute(ControlInput) -> ControlOutput``:
 
 1. checks     the MPPI controller's own (control.mppi): path, map, finite pose and velocity,
-              the robot's and the goal's cells, the goal tolerance and the final turn in place.
+              the robot's and the goal's cells, the goal tolerance and the final turn in place
+              (the shared tracking.PathTracker).
 2. tube       the nominal state z (noise free, kept between steps) is reset to the measured
               state x when x has left the tube: |xy - z_xy| > ``tube_radius_m`` or
               |yaw - z_yaw| > ``tube_yaw_rad`` (and on the first step, after a reset or a stop).
@@ -43,6 +44,7 @@ from ..config import positive, require
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
 from .mppi import MppiController, MppiPlan, MppiSettings
+from .tracking import TrackingSettings
 
 
 @dataclass(frozen=True)
@@ -82,11 +84,12 @@ class TubeMppiController(MppiController):
     from ``state`` as the measured state. ``trajectory`` is the ancillary's predicted
     trajectory, ``nominal_trajectory`` MPPI's; ``resets`` counts nominal resets (step 2)."""
 
-    def __init__(self, settings: TubeMppiSettings, robot: RobotSpec, seed: Optional[int] = None):
+    def __init__(self, settings: TubeMppiSettings, robot: RobotSpec,
+                 tracking: Optional[TrackingSettings] = None, seed: Optional[int] = None):
         settings.validate("TubeMppiSettings")
         self.tube = settings
         self.resets = 0
-        super().__init__(settings.mppi, robot, seed)
+        super().__init__(settings.mppi, robot, tracking, seed)
 
 
     def reset(self) -> None:
