@@ -78,8 +78,8 @@ class LatticeSettings:
 
     def with_robot(self, robot: RobotSpec) -> "LatticeSettings":
         """These settings with the speeds left 0 taken from ``robot``: its top speed, and its
-        turning speed capped at the follower's 0.8 rad/s in-place rate
-        (``FollowerSettings.rotate_speed_max_radps``)."""
+        turning speed capped at the controllers' 0.8 rad/s in-place rate
+        (``TrackingSettings.rotate_speed_max_radps``)."""
         return replace(self, cruise_speed_mps=self.cruise_speed_mps or robot.max_linear_mps,
                        turn_speed_radps=self.turn_speed_radps or min(0.8, robot.max_angular_radps))
 

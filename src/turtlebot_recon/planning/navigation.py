@@ -485,7 +485,7 @@ class Navigation:
     def _back(self, pose: tuple) -> tuple:
         """One period of the backward manoeuvre: drive straight on to its cusp (``approach``,
         when the follower stopped short of it), turn in place to its heading (the box's sweep
-        checked, at the follower's turning rate), then back straight (heading kept), both at
+        checked, at the tracking block's turning rate), then back straight (heading kept), both at
         the lattice's reverse_speed_mps while the body stays clear, until level with its end;
         then plan again."""
         m = self.map
