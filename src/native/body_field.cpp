@@ -53,9 +53,9 @@ py::array_t<double> py_body_field_clearance(const I8Grid& occupancy, double reso
 void register_body_field(py::module_& m) {
   m.def("body_field_clearance", &py_body_field_clearance, py::arg("occupancy"),
         py::arg("resolution"), py::arg("origin"), py::arg("poses"),
-        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
-        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m"), py::arg("spacing_m") = 0.05, py::arg("max_m") = 1.0,
-        py::arg("occupied_threshold") = 65,
+        py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+        py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("spacing_m"), py::arg("max_m"),
+        py::arg("occupied_threshold"),
         "Clearance (m, capped at max_m) of the body at each (x, y, yaw) pose from the distance\n"
         "field of the occupancy's obstacle cells (body_field.hpp; a box by its outline sampled\n"
         "every spacing_m): the sampling controllers' obstacle test. Negative where it overlaps.");

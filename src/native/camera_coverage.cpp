@@ -79,11 +79,10 @@ py::array py_camera_coverage(const I8Grid& occupancy, double resolution, const p
 }  // namespace
 
 void register_perception(py::module_& m) {
-  const tc::CoverageParams defaults{};
   m.def("camera_coverage", &py_camera_coverage, py::arg("occupancy"), py::arg("resolution"),
         py::arg("origin"), py::arg("pose"), py::arg("hfov_rad"), py::arg("max_range_m"),
-        py::arg("max_incidence_rad"), py::arg("occupied_threshold") = defaults.occupied_threshold,
-        py::arg("rays") = defaults.rays, py::arg("seen") = py::none(),
+        py::arg("max_incidence_rad"), py::arg("occupied_threshold"),
+        py::arg("rays"), py::arg("seen") = py::none(),
         "Camera coverage: uint8 (rows, cols), 1 on every wall cell of `occupancy` (int8\n"
         "(rows, cols), ROS values, row 0 = smallest y; a wall is >= occupied_threshold) that a\n"
         "ray of the camera at pose (x m, y m, yaw rad, grid frame) hits first within hfov_rad\n"

@@ -151,20 +151,20 @@ void register_dwa(py::module_& m) {
                       "The dynamic window approach (include/turtlebot_recon/dwa.hpp): n_v x n_w\n"
                       "arcs in the window around the measured (v, w), the body checked along each\n"
                       "against a distance field, score alpha heading + beta clearance + gamma velocity.")
-      .def(py::init(&make_dwa), py::arg("max_linear_mps"), py::arg("min_linear_mps") = 0.0,
+      .def(py::init(&make_dwa), py::arg("max_linear_mps"), py::arg("min_linear_mps"),
            py::arg("max_angular_radps"), py::arg("linear_accel_mps2"),
-           py::arg("angular_accel_radps2"), py::arg("footprint_length_m") = 0.0,
-           py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,
-           py::arg("radius_m"), py::arg("outline_spacing_m") = 0.05,
-           py::arg("linear_samples") = 20, py::arg("angular_samples") = 20,
-           py::arg("horizon_s") = 2.0, py::arg("dt_s") = 0.1, py::arg("margin_m") = 0.005,
-           py::arg("clearance_max_m") = 0.3, py::arg("unknown_is_obstacle") = true,
-           py::arg("occupied_threshold") = 65, py::arg("heading_weight") = 0.75,
-           py::arg("clearance_weight") = 0.18, py::arg("velocity_weight") = 0.08)
+           py::arg("angular_accel_radps2"), py::arg("footprint_length_m"),
+           py::arg("footprint_width_m"), py::arg("footprint_offset_x_m"),
+           py::arg("radius_m"), py::arg("outline_spacing_m"),
+           py::arg("linear_samples"), py::arg("angular_samples"),
+           py::arg("horizon_s"), py::arg("dt_s"), py::arg("margin_m"),
+           py::arg("clearance_max_m"), py::arg("unknown_is_obstacle"),
+           py::arg("occupied_threshold"), py::arg("heading_weight"),
+           py::arg("clearance_weight"), py::arg("velocity_weight"))
       .def("plan", &py_plan, py::arg("occupancy"), py::arg("resolution"), py::arg("origin"),
            py::arg("pose"), py::arg("velocity"), py::arg("period_s"), py::arg("target"), py::arg("goal"),
-           py::arg("goal_radius_m") = 0.0, py::arg("goal_distance_m") = INFINITY,
-           py::arg("path_ahead") = py::array_t<double>(std::vector<py::ssize_t>{0, 3}),
+           py::arg("goal_radius_m"), py::arg("goal_distance_m"),
+           py::arg("path_ahead"),
            "One DWA step. pose (x, y, yaw) and velocity (v, w) measured, period_s the control\n"
            "period (the window's reach); target: the look-ahead\n"
            "point the heading term aims at; an arc ends at its first pose within goal_radius_m\n"

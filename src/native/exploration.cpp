@@ -50,7 +50,7 @@ py::array_t<bool> py_visible_cells(const U8Grid& blocking, const I32Array& point
 
 void register_exploration(py::module_& m) {
   m.def("visible_unknown", &py_visible_unknown, py::arg("occupancy"), py::arg("cells"),
-        py::arg("radius_cells"), py::arg("beams") = 180, py::arg("free_threshold") = 25,
+        py::arg("radius_cells"), py::arg("beams"), py::arg("free_threshold"),
         "Information gain: for each query cell of `cells` (int32 (n, 2) of (row, col)), the\n"
         "number of distinct unknown (< 0) cells of `occupancy` (int8 (rows, cols), ROS values)\n"
         "that `beams` Bresenham rays, evenly spread over 360 degrees, pass over within\n"
@@ -58,7 +58,7 @@ void register_exploration(py::module_& m) {
         "or the grid's edge stops them. Unknown cells let rays through; the query cell never\n"
         "stops them. Returns int32 (n,). ValueError if a query cell is off the grid.");
   m.def("visible_cells", &py_visible_cells, py::arg("blocking"), py::arg("points"),
-        py::arg("radius_cells"), py::arg("beams") = 360,
+        py::arg("radius_cells"), py::arg("beams"),
         "Line of sight: bool (rows, cols), true on every cell that some of `beams` Bresenham\n"
         "rays (the rays of visible_unknown) from some viewpoint of `points` (int32 (n, 2) of\n"
         "(row, col)) reaches within radius_cells (centre to centre) before a blocking cell\n"

@@ -6,7 +6,6 @@
 #include <pybind11/stl.h>
 
 #include <cmath>
-#include <limits>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -70,9 +69,7 @@ il::Result py_ilqr_track(const F64Array& x0, const F64Array& x_ref, const F64Arr
                          const std::vector<double>& q, const std::vector<double>& r,
                          const std::vector<double>& qf, const std::vector<double>& r_change,
                          const std::optional<F64Array>& u_prev, const std::vector<double>& u_min,
-                         const std::vector<double>& u_max, int max_iterations, double tolerance,
-                         double min_decrease_ratio, int line_search_steps, double mu_init,
-                         double mu_min, double mu_max, double mu_factor) {
+                         const std::vector<double>& u_max, int max_iterations) {
   if (!(u_ref.ndim() == 2 && u_ref.shape(0) >= 1 && u_ref.shape(1) == 2))
     fail(kFn, "u_ref must be a (T, 2) array of (v m/s, w rad/s), T >= 1");
   const py::ssize_t T = u_ref.shape(0);
@@ -95,16 +92,7 @@ il::Result py_ilqr_track(const F64Array& x0, const F64Array& x_ref, const F64Arr
   }
   s.u_min = vector_of<2>(u_min, "u_min", false);
   s.u_max = vector_of<2>(u_max, "u_max", false);
-  s.max_iterations = max_iterations;
-  s.tolerance = tolerance;
-  s.min_decrease_ratio = min_decrease_ratio;
-  s.line_search_steps = line_search_steps;
-  s.mu_init = mu_init;
-  s.mu_min = mu_min;
-  s.mu_max = mu_max;
-  s.mu_factor = mu_factor;
-  if (!(std::isfinite(mu_init) && mu_init >= 0 && mu_min > 0 && mu_max >= mu_min))
-    fail(kFn, "need 0 <= mu_init, 0 < mu_min <= mu_max");
+  s.max_iterations = max_iterations;   // the solver's own tolerances: ilqr.hpp's Settings
   try {
     py::gil_scoped_release release;
     il::Tracker tracker(dt, s);
@@ -145,22 +133,15 @@ void register_ilqr(py::module_& m) {
       .def_readonly("converged", &il::Result::converged)
       .def_readonly("mu", &il::Result::mu, "the regularisation at the end")
       .def("__repr__", &repr);
-  const double inf = std::numeric_limits<double>::infinity();
   m.def("ilqr_track", &py_ilqr_track, py::arg("x0"), py::arg("x_ref"), py::arg("u_ref"),
-        py::arg("u_init") = py::none(), py::arg("dt"),
-        py::arg("q") = std::vector<double>{1.0, 1.0, 0.1},
-        py::arg("r") = std::vector<double>{0.1, 0.01},
-        py::arg("qf") = std::vector<double>{10.0, 10.0, 1.0},
-        py::arg("r_change") = std::vector<double>{0.0, 0.0}, py::arg("u_prev") = py::none(),
-        py::arg("u_min") = std::vector<double>{-inf, -inf},
-        py::arg("u_max") = std::vector<double>{inf, inf}, py::arg("max_iterations") = 10,
-        py::arg("tolerance") = 1e-4, py::arg("min_decrease_ratio") = 1e-4,
-        py::arg("line_search_steps") = 8, py::arg("mu_init") = 0.0, py::arg("mu_min") = 1e-6,
-        py::arg("mu_max") = 1e10, py::arg("mu_factor") = 1.6,
+        py::arg("u_init") = py::none(), py::arg("dt"), py::arg("q"), py::arg("r"), py::arg("qf"),
+        py::arg("r_change"), py::arg("u_prev") = py::none(), py::arg("u_min"), py::arg("u_max"),
+        py::arg("max_iterations"),
         "iLQR tracking for the unicycle x' = x + dt (v cos yaw, v sin yaw, w) (ilqr.hpp): from\n"
         "x0, the T controls within [u_min, u_max] minimising\n"
         "sum e'Qe + du'R du + c'S c + e_T'Qf e_T against x_ref (T + 1, 3) and u_ref (T, 2),\n"
         "starting from u_init (default u_ref); c_t = u_t - u_{t-1}, u_{-1} = u_prev (none: no\n"
-        "change cost at t = 0). q, r, qf, r_change: the diagonals of Q, R, Qf, S (per step).\n"
+        "change cost at t = 0). q, r, qf, r_change: the diagonals of Q, R, Qf, S (per step); the\n"
+        "line search and regularisation follow ilqr.hpp's Settings.\n"
         "Returns an IlqrResult.");
 }

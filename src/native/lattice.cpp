@@ -222,13 +222,13 @@ py::list py_lattice_headings(int headings) {
 void register_lattice(py::module_& m) {
   m.def("plan_lattice", &py_plan_lattice, py::arg("occupancy"), py::arg("resolution"),
         py::arg("start"), py::arg("start_yaw"), py::arg("goal"), py::arg("goal_yaw") = py::none(),
-        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
-        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,
-        py::arg("headings") = 16, py::arg("margin_m") = 0.02, py::arg("turn_margin_m") = 0.01,
-        py::arg("cost_weight") = 1.0, py::arg("inflation_m") = 0.35,
-        py::arg("cost_scaling_factor") = 5.0, py::arg("turn_cost_m_per_rad") = 0.325,
-        py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
-        py::arg("reverse_cost_factor") = 0.0,
+        py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+        py::arg("footprint_offset_x_m"), py::arg("radius_m"),
+        py::arg("headings"), py::arg("margin_m"), py::arg("turn_margin_m"),
+        py::arg("cost_weight"), py::arg("inflation_m"),
+        py::arg("cost_scaling_factor"), py::arg("turn_cost_m_per_rad"),
+        py::arg("occupied_threshold"), py::arg("unknown_is_obstacle"),
+        py::arg("reverse_cost_factor"),
         "State-lattice A* over (row, col, heading) on ROS int8 occupancy (-1 unknown, 0..100) for\n"
         "a box footprint (length x width, centre offset_x ahead of base_footprint; length 0: a\n"
         "disc of radius_m). start, goal: (row, col) cells; start_yaw (rad) and goal_yaw (None: any\n"
@@ -245,15 +245,15 @@ void register_lattice(py::module_& m) {
         "grid, in an obstacle, in unknown space or its footprint collides.");
   m.def("lattice_cost_to_come", &py_lattice_cost_to_come, py::arg("occupancy"),
         py::arg("resolution"), py::arg("start"), py::arg("start_yaw"),
-        py::arg("snap_radius_m") = 0.5, py::arg("footprint_length_m") = 0.0,
-        py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,
-        py::arg("radius_m") = 0.105, py::arg("headings") = 16, py::arg("margin_m") = 0.02,
-        py::arg("turn_margin_m") = 0.01, py::arg("cost_weight") = 1.0,
-        py::arg("inflation_m") = 0.35, py::arg("cost_scaling_factor") = 5.0,
-        py::arg("turn_cost_m_per_rad") = 0.325, py::arg("occupied_threshold") = 65,
-        py::arg("unknown_is_obstacle") = false, py::arg("reverse_cost_factor") = 0.0,
-        py::arg("extra_seeds") = std::vector<std::tuple<int, int, int, double>>{},
-        py::arg("turns_within_m") = std::numeric_limits<double>::infinity(),
+        py::arg("snap_radius_m"), py::arg("footprint_length_m"),
+        py::arg("footprint_width_m"), py::arg("footprint_offset_x_m"),
+        py::arg("radius_m"), py::arg("headings"), py::arg("margin_m"),
+        py::arg("turn_margin_m"), py::arg("cost_weight"),
+        py::arg("inflation_m"), py::arg("cost_scaling_factor"),
+        py::arg("turn_cost_m_per_rad"), py::arg("occupied_threshold"),
+        py::arg("unknown_is_obstacle"), py::arg("reverse_cost_factor"),
+        py::arg("extra_seeds"),
+        py::arg("turns_within_m"),
         "float32 (rows, cols): the cheapest plan_lattice cost (m) from the robot at cell `start`\n"
         "with yaw start_yaw to each cell at its cheapest heading; inf where plan_lattice finds no\n"
         "path. Start states: every heading that fits where the turning disc does (each costing\n"
@@ -263,32 +263,32 @@ void register_lattice(py::module_& m) {
         "turns_within_m, turns in cells where the robot can turn in place are not counted (one\n"
         "node per such cell; the reach is the same, the costs there lower bounds).");
   m.def("footprint_costmap", &py_footprint_costmap, py::arg("occupancy"), py::arg("resolution"),
-        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
-        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105,
-        py::arg("margin_m") = 0.02, py::arg("inflation_m") = 0.35,
-        py::arg("cost_scaling_factor") = 5.0, py::arg("occupied_threshold") = 65,
-        py::arg("unknown_is_obstacle") = false,
+        py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+        py::arg("footprint_offset_x_m"), py::arg("radius_m"),
+        py::arg("margin_m"), py::arg("inflation_m"),
+        py::arg("cost_scaling_factor"), py::arg("occupied_threshold"),
+        py::arg("unknown_is_obstacle"),
         "The graded costmap plan_lattice reads (uint8, Nav2 convention): 254 obstacle, 255 unknown,\n"
         "253 where no lattice heading of the footprint fits (exact; always where the nearest obstacle\n"
         "edge is nearer than the body's inscribed radius about base_footprint + margin_m),\n"
         "252 exp(-k (d - r_in)) out to inflation_m beyond, d to the obstacle's edge, 0 further.");
   m.def("footprint_clear", &py_footprint_clear, py::arg("occupancy"), py::arg("resolution"),
-        py::arg("origin"), py::arg("poses"), py::arg("footprint_length_m") = 0.0,
-        py::arg("footprint_width_m") = 0.0, py::arg("footprint_offset_x_m") = 0.0,
-        py::arg("radius_m") = 0.105, py::arg("margin_m") = 0.02,
-        py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
+        py::arg("origin"), py::arg("poses"), py::arg("footprint_length_m"),
+        py::arg("footprint_width_m"), py::arg("footprint_offset_x_m"),
+        py::arg("radius_m"), py::arg("margin_m"),
+        py::arg("occupied_threshold"), py::arg("unknown_is_obstacle"),
         "bool (n,): whether the footprint at each (x, y, yaw) pose (m, rad; any pose, not only\n"
         "lattice ones) keeps margin_m off every obstacle cell's square (occupancy >=\n"
         "occupied_threshold; unknown cells and cells off the grid too if unknown_is_obstacle).\n"
         "origin: (x, y) of cell (0, 0)'s corner. Non-finite poses are not clear.");
   m.def("footprint_clearance", &py_footprint_clearance, py::arg("occupancy"),
         py::arg("resolution"), py::arg("origin"), py::arg("poses"),
-        py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
-        py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m") = 0.105, py::arg("max_m") = 0.1,
-        py::arg("occupied_threshold") = 65, py::arg("unknown_is_obstacle") = false,
+        py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+        py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("max_m"),
+        py::arg("occupied_threshold"), py::arg("unknown_is_obstacle"),
         "float (n,): the distance (m) from the footprint at each (x, y, yaw) pose to the nearest\n"
         "obstacle cell's square (as footprint_clear counts them), 0 when they meet, max_m when\n"
         "none is nearer. Non-finite poses: 0.");
-  m.def("lattice_headings", &py_lattice_headings, py::arg("headings") = 16,
+  m.def("lattice_headings", &py_lattice_headings, py::arg("headings"),
         "The lattice headings as (drow, dcol, yaw_rad): heading k moves forward by (drow, dcol).");
 }

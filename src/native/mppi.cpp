@@ -266,7 +266,7 @@ void register_mppi(py::module_& m) {
         py::arg("requested"), py::arg("dt_s"), py::arg("min_linear_mps"),
         py::arg("max_linear_mps"), py::arg("max_angular_radps"),
         py::arg("max_linear_accel_mps2"), py::arg("max_angular_accel_radps2"),
-        py::arg("clamp_velocity") = true,
+        py::arg("clamp_velocity"),
         "MPPI's motion model alone (mppi/motion_model.hpp): the requested (K, T, 2) speeds\n"
         "made feasible from velocity (v, w), and the (K, T, 3) poses after each step from pose.");
   m.def("mppi_config_keys", &py_mppi_config_keys,
@@ -279,19 +279,19 @@ void register_mppi(py::module_& m) {
                     double, std::uint32_t>(),
            py::arg("config"), py::arg("max_linear_mps"), py::arg("max_angular_radps"),
            py::arg("max_linear_accel_mps2"), py::arg("max_angular_accel_radps2"),
-           py::arg("footprint_length_m") = 0.0, py::arg("footprint_width_m") = 0.0,
-           py::arg("footprint_offset_x_m") = 0.0, py::arg("radius_m"), py::arg("seed") = 0)
+           py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+           py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("seed"))
       .def("reset", &PyMppi::reset,
            "Zero control sequence and history; the noise restarts from the seed.")
       .def("set_map", &PyMppi::set_map, py::arg("occupancy"), py::arg("resolution"),
-           py::arg("origin"), py::arg("occupied_threshold") = 65,
+           py::arg("origin"), py::arg("occupied_threshold"),
            "Build the distance field of the int8 occupancy's obstacle cells (>= threshold).")
       .def("optimize", &PyMppi::optimize, py::arg("pose"), py::arg("velocity"), py::arg("path"),
-           py::arg("goal"), py::arg("goal_yaw") = py::none(), py::arg("shift_steps") = 1,
+           py::arg("goal"), py::arg("goal_yaw") = py::none(), py::arg("shift_steps"),
            "One MPPI iteration from pose (x, y, yaw) at velocity (v, w) along the local path\n"
            "(n, 2) (from its point nearest the pose) to goal (x, y) [goal_yaw rad]. Returns a\n"
            "dict: controls (T, 2), states (T + 1, 3), min_cost, colliding, all_collide, collides.")
-      .def("rollouts", &PyMppi::rollouts, py::arg("count") = 50,
+      .def("rollouts", &PyMppi::rollouts, py::arg("count"),
            "(count, T, 3) poses of rollouts spread over the last iteration's batch.")
       .def("costs", &PyMppi::costs, "(K,) the last iteration's rollout costs.")
       .def_property_readonly("reach_m", &PyMppi::reach_m)

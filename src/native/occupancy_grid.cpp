@@ -515,23 +515,23 @@ void register_mapping(py::module_& m) {
              s.grow_margin_m = grow_margin_m;
              return std::make_unique<OccupancyGrid>(s);
            }),
-           py::arg("resolution"), py::arg("width_m") = 10.0, py::arg("height_m") = 10.0,
-           py::arg("origin_x") = -5.0, py::arg("origin_y") = -5.0, py::arg("p_hit") = 0.7,
-           py::arg("p_miss") = 0.4, py::arg("p_min") = 0.12, py::arg("p_max") = 0.97,
-           py::arg("grow_margin_m") = 2.0)
+           py::arg("resolution"), py::arg("width_m"), py::arg("height_m"),
+           py::arg("origin_x"), py::arg("origin_y"), py::arg("p_hit"),
+           py::arg("p_miss"), py::arg("p_min"), py::arg("p_max"),
+           py::arg("grow_margin_m"))
       .def("insert_scan", &py_insert_scan, py::arg("sensor_x"), py::arg("sensor_y"),
            py::arg("sensor_yaw"), py::arg("ranges"), py::arg("angle_min"),
            py::arg("angle_increment"), py::arg("range_min"), py::arg("range_max"),
-           py::arg("no_return_clear_m") = 0.0, py::arg("range_cap_m") = 0.0,
+           py::arg("no_return_clear_m"), py::arg("range_cap_m"),
            "Insert one scan taken at the sensor pose (map frame). ranges: 1-D float32 array (m),\n"
            "beam i at sensor_yaw + angle_min + i*angle_increment. Returns ScanStats.")
       .def("insert_scans", &py_insert_scans, py::arg("poses"), py::arg("ranges"),
            py::arg("angle_min"), py::arg("angle_increment"), py::arg("range_min"),
-           py::arg("range_max"), py::arg("no_return_clear_m") = 0.0, py::arg("range_cap_m") = 0.0,
+           py::arg("range_max"), py::arg("no_return_clear_m"), py::arg("range_cap_m"),
            "Insert n scans of one lidar in order: poses (n, 3) sensor x, y, yaw (map frame),\n"
            "ranges (n, beams) float32. Returns the ScanStats summed over the scans.")
       .def("mark_bumper", &OccupancyGrid::mark_bumper, py::arg("x"), py::arg("y"), py::arg("yaw"),
-           py::arg("bumper_angle_rad"), py::arg("robot_radius_m"), py::arg("cells") = 5,
+           py::arg("bumper_angle_rad"), py::arg("robot_radius_m"), py::arg("cells"),
            "Mark `cells` cells occupied along the body's tangent where the bumper at body angle\n"
            "bumper_angle_rad (0 centre, + left) touched something; the robot is at (x, y, yaw).")
       .def("add_visit", &OccupancyGrid::add_visit, py::arg("x"), py::arg("y"), py::arg("speed_mps"),

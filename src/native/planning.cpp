@@ -167,16 +167,16 @@ void register_planning(py::module_& m) {
         "Huttenlocher 2012, columns then rows). mask: uint8 (rows, cols).");
   m.def("inflate", &py_inflate, py::arg("occupancy"), py::arg("resolution"),
         py::arg("inscribed_radius_m"), py::arg("inflation_radius_m"),
-        py::arg("cost_scaling_factor"), py::arg("occupied_threshold") = 65,
-        py::arg("unknown_is_obstacle") = false,
+        py::arg("cost_scaling_factor"), py::arg("occupied_threshold"),
+        py::arg("unknown_is_obstacle"),
         "Inflated costmap (uint8, Nav2 convention) from ROS int8 occupancy (-1 unknown, 0..100):\n"
         "254 on obstacles (value >= occupied_threshold, or unknown if unknown_is_obstacle),\n"
         "253 within inscribed_radius_m, floor(252 exp(-k (d - inscribed))) up to\n"
         "inflation_radius_m, 0 beyond, 255 on unknown cells that are not obstacles.");
   m.def("astar", &py_astar, py::arg("costmap"), py::arg("start"), py::arg("goal"),
-        py::arg("visits") = py::none(), py::arg("visit_sensitivity") = 0.5,
-        py::arg("cost_weight") = 1.0, py::arg("unknown_cost") = -1, py::arg("lethal_cost") = 253,
-        py::arg("resolution") = 0.05,
+        py::arg("visits") = py::none(), py::arg("visit_sensitivity"),
+        py::arg("cost_weight"), py::arg("unknown_cost"), py::arg("lethal_cost"),
+        py::arg("resolution"),
         "A* on the 8-connected costmap from start to goal ((row, col) tuples), no corner cutting.\n"
         "Entering cell b over a step of L metres costs\n"
         "L * (1 + cost_weight * c_b / 252 + visit_sensitivity * visits_b); cells with cost >=\n"
@@ -186,19 +186,19 @@ void register_planning(py::module_& m) {
         "is unreachable. ValueError if start or goal is off the grid or impassable. The cost is\n"
         "optimal to a relative 1e-9 (the heuristic's tie-break).");
   m.def("dijkstra", &py_dijkstra, py::arg("costmap"), py::arg("start"),
-        py::arg("visits") = py::none(), py::arg("visit_sensitivity") = 0.5,
-        py::arg("cost_weight") = 1.0, py::arg("unknown_cost") = -1, py::arg("lethal_cost") = 253,
-        py::arg("resolution") = 0.05, py::arg("targets") = py::none(),
+        py::arg("visits") = py::none(), py::arg("visit_sensitivity"),
+        py::arg("cost_weight"), py::arg("unknown_cost"), py::arg("lethal_cost"),
+        py::arg("resolution"), py::arg("targets") = py::none(),
         "Cost-to-come (float32 (rows, cols), metres weighted as in astar) from start to every\n"
         "cell; +inf where unreachable or impassable. targets: an (n, 2) array of cells (None or\n"
         "empty: every cell); the search then stops once all of them are settled, and only the cells settled by then\n"
         "(every one cheaper than the dearest target) hold their cost, the rest +inf.");
   m.def("nearest_accessible", &py_nearest_accessible, py::arg("costmap"), py::arg("cell"),
-        py::arg("max_cost") = 252, py::arg("max_radius_m") = 2.0, py::arg("resolution") = 0.05,
+        py::arg("max_cost"), py::arg("max_radius_m"), py::arg("resolution"),
         "The known cell nearest to `cell` (Euclidean; ties to the smaller row, then column) with\n"
         "cost <= max_cost, within max_radius_m, as (row, col); None if there is none. `cell` may\n"
         "be inaccessible or outside the grid.");
-  m.def("shortcut", &py_shortcut, py::arg("path"), py::arg("costmap"), py::arg("lethal_cost") = 253,
+  m.def("shortcut", &py_shortcut, py::arg("path"), py::arg("costmap"), py::arg("lethal_cost"),
         "Line-of-sight simplification of an (n, 2) path: from each kept point, jump to the\n"
         "farthest later point whose Bresenham line crosses only cells with cost < lethal_cost\n"
         "and <= the highest cost of the path between them. Keeps the first and last points.");

@@ -117,7 +117,6 @@ void register_slam(py::module_& m) {
       .def_readonly("iterations", &ts::MatchResult::iterations)
       .def("__repr__", &repr);
 
-  const ts::MatcherParams d{};
   py::class_<LockedMatcher>(
       m, "ScanMatcher",
       "2-D scan-to-submap matcher: Olson's correlative search, then point-to-line ICP\n"
@@ -144,16 +143,16 @@ void register_slam(py::module_& m) {
              p.degenerate_std_m = degenerate_std_m;
              return std::make_unique<LockedMatcher>(p);
            }),
-           py::arg("search_xy_m") = d.search_xy_m, py::arg("search_yaw_rad") = d.search_yaw_rad,
-           py::arg("grid_resolution_m") = d.grid_resolution_m,
-           py::arg("coarse_resolution_m") = d.coarse_resolution_m,
-           py::arg("coarse_yaw_step_rad") = d.coarse_yaw_step_rad, py::arg("sigma_m") = d.sigma_m,
-           py::arg("icp_iterations") = d.icp_iterations,
-           py::arg("max_correspondence_m") = d.max_correspondence_m,
-           py::arg("normal_radius_m") = d.normal_radius_m, py::arg("huber_m") = d.huber_m,
-           py::arg("inlier_m") = d.inlier_m, py::arg("min_points") = d.min_points,
-           py::arg("degeneracy_ratio") = d.degeneracy_ratio,
-           py::arg("degenerate_std_m") = d.degenerate_std_m)
+           py::arg("search_xy_m"), py::arg("search_yaw_rad"),
+           py::arg("grid_resolution_m"),
+           py::arg("coarse_resolution_m"),
+           py::arg("coarse_yaw_step_rad"), py::arg("sigma_m"),
+           py::arg("icp_iterations"),
+           py::arg("max_correspondence_m"),
+           py::arg("normal_radius_m"), py::arg("huber_m"),
+           py::arg("inlier_m"), py::arg("min_points"),
+           py::arg("degeneracy_ratio"),
+           py::arg("degenerate_std_m"))
       .def("match", &py_match, py::arg("points"), py::arg("reference"), py::arg("guess"),
            "Match points ((n, 2) float64, the scan's frame) to reference ((m, 2) float64, the\n"
            "map frame) from guess (x, y, yaw). Returns a ScanMatch; ok=False with a failure\n"

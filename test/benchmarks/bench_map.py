@@ -29,12 +29,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import write  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
-from turtlebot_recon.planning import LatticeSettings, plan_lattice  # noqa: E402
+from turtlebot_recon.mapping import GridSettings, make_grid  # noqa: E402
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH  # noqa: E402
+from turtlebot_recon.planning import LatticeSettings, PlannerSettings, plan_lattice  # noqa: E402
+from turtlebot_recon.planning.costmap import cost_model  # noqa: E402
 from turtlebot_recon.robot import load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 from turtlebot_recon.sim.simulator import SimSettings, Simulator  # noqa: E402
 
 RES = 0.05
+COST = cost_model(PlannerSettings(), RES)     # the planner's step cost (the bindings take every argument)
 L_HIT, L_MISS = math.log(0.7 / 0.3), math.log(0.4 / 0.6)
 L_MIN, L_MAX = math.log(0.12 / 0.88), math.log(0.97 / 0.03)
 
@@ -88,12 +92,12 @@ def numpy_insert(logodds, origin, pose, ranges, lid):
 
 def bench_scans() -> dict:
     scans, lid = house_scans(200)
-    grid = _native.OccupancyGrid(RES, width_m=20.0, height_m=15.0, origin_x=-2.0, origin_y=-2.0)
+    grid = make_grid(GridSettings(resolution=RES, width_m=20.0, height_m=15.0, origin_x=-2.0, origin_y=-2.0))
 
     def native():
         for pose, r in scans:
             grid.insert_scan(pose[0], pose[1], pose[2], r, lid.angle_min_rad, lid.angle_increment_rad,
-                             lid.range_min_m, lid.range_max_m)
+                             lid.range_min_m, lid.range_max_m, no_return_clear_m=0.0, range_cap_m=0.0)
 
     logodds = np.zeros((300, 400))
 
@@ -110,7 +114,7 @@ def bench_scans() -> dict:
 
 def inflated(occ: np.ndarray) -> np.ndarray:
     """The burger's costmap: inscribed 0.1 m, inflation 0.4 m, decay 5 / m (Nav2 convention)."""
-    return _native.inflate(occ, RES, 0.1, 0.4, 5.0)
+    return _native.inflate(occ, RES, 0.1, 0.4, 5.0, occupied_threshold=OCCUPIED_THRESH, unknown_is_obstacle=False)
 
 
 def building_occupancy(n: int, room: int = 80, wall: int = 2, door: int = 20,
@@ -199,9 +203,9 @@ def bench_astar() -> dict:
         for n, repeats in ((400, 21), (2000, 5)):
             cost = make(n)
             start, goal = (10, 10), (n - 11, n - 11)
-            path, total = _native.astar(cost, start, goal)
+            path, total = _native.astar(cost, start, goal, **COST)
             assert len(path) and math.isfinite(total)
-            out[f"astar_ms_{n}{name}"] = 1e3 * median_time(lambda: _native.astar(cost, start, goal), repeats)
+            out[f"astar_ms_{n}{name}"] = 1e3 * median_time(lambda: _native.astar(cost, start, goal, **COST), repeats)
             if n == 400:
                 t0 = time.perf_counter()
                 py_total = python_astar(cost, start, goal)

@@ -60,6 +60,7 @@ from common import TOP, write  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
 from turtlebot_recon.control import CONTROLLERS  # noqa: E402
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH  # noqa: E402
 from turtlebot_recon.planning.costmap import PlanningError  # noqa: E402
 from turtlebot_recon.planning.lattice import LatticeSettings, plan_lattice  # noqa: E402
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings  # noqa: E402
@@ -202,7 +203,7 @@ def run_one(task: dict) -> dict:
         truth_a = np.array(truth).reshape(-1, 3)
         clearance = _native.body_field_clearance(
             occ, world.resolution, (world.origin[0], world.origin[1]), truth_a,
-            spacing_m=0.02, max_m=1.0, **footprint_args(robot))
+            spacing_m=0.02, max_m=1.0, **footprint_args(robot), occupied_threshold=OCCUPIED_THRESH)
         sp = np.abs(np.array(speeds))
         driving = sp[sp >= DRIVING_MPS]
         out = dict(task, success=bool(success), status=nav.status, reason=nav.reason, off_goal_m=round(off, 3),

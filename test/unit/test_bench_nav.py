@@ -12,6 +12,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import bench_nav  # noqa: E402
 
 from turtlebot_recon import _native  # noqa: E402
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH  # noqa: E402
 from turtlebot_recon.robot import footprint_args, load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 
@@ -29,7 +30,8 @@ def test_each_world_has_30_pairs_whose_starts_fit_and_goals_are_far(world_name):
     starts = np.array([p["start"] for p in pairs], float)
     # every start: the body clear of walls (the circumscribed disc's spare, any heading)
     clearance = _native.body_field_clearance(occ, world.resolution, world.origin, starts, max_m=1.0,
-                                             **footprint_args(robot))
+                                             **footprint_args(robot), spacing_m=0.05,
+                                             occupied_threshold=OCCUPIED_THRESH)
     assert clearance.min() > 0.05
     for p in pairs:
         assert math.dist(p["start"][:2], p["goal"]) >= bench_nav.MIN_PAIR_DISTANCE_M

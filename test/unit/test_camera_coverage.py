@@ -15,6 +15,7 @@ on the same grid, unchanged since the last call (mask updated in place): 0.04 ms
 """
 import logging
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -27,6 +28,9 @@ from turtlebot_recon.robot import CameraSpec
 from conftest import grid_traversal
 
 RES = 0.05
+# the binding takes every argument: the camera coverage's own (CoverageSettings) unless a test gives its own
+camera_coverage = partial(_native.camera_coverage, occupied_threshold=CoverageSettings().occupied_threshold,
+                          rays=CoverageSettings().rays)
 UNKNOWN, FREE, WALL = -1, 0, 100
 DEG = math.pi / 180
 
@@ -40,7 +44,7 @@ def square_room(n=80, wall=2):
 
 
 def coverage(occ, pose, hfov_deg=60.0, max_range_m=4.0, max_incidence_deg=60.0, **kw):
-    return _native.camera_coverage(occ, RES, (0.0, 0.0), pose, hfov_deg * DEG, max_range_m,
+    return camera_coverage(occ, RES, (0.0, 0.0), pose, hfov_deg * DEG, max_range_m,
                                    max_incidence_deg * DEG, **kw)
 
 
@@ -208,9 +212,9 @@ def test_bad_arguments_raise_value_error_naming_them():
     ]
     for name, change in bad:
         with pytest.raises(ValueError, match=name):
-            _native.camera_coverage(**{**good, **change})
-    assert _native.camera_coverage(**good).any()                        # the good call works
-    assert _native.camera_coverage(**{**good, "hfov_rad": math.pi}).any()
+            camera_coverage(**{**good, **change})
+    assert camera_coverage(**good).any()                        # the good call works
+    assert camera_coverage(**{**good, "hfov_rad": math.pi}).any()
 
 
 # ----------------------------------------------------------- against a Python reference
@@ -276,7 +280,7 @@ def test_matches_the_python_reference_on_random_maps(seed):
         pose = ((c + rng.random()) * RES, (r + rng.random()) * RES, rng.uniform(-math.pi, math.pi))
         hfov, max_range = rng.uniform(0.3, math.pi), rng.uniform(0.5, 4.0)
         max_incidence, rays = rng.uniform(0.2, math.pi / 2), int(rng.integers(1, 120))
-        got = _native.camera_coverage(occ, RES, (0.0, 0.0), pose, hfov, max_range, max_incidence,
+        got = camera_coverage(occ, RES, (0.0, 0.0), pose, hfov, max_range, max_incidence,
                                       rays=rays)
         want = reference_coverage(occ, pose, hfov, max_range, max_incidence, 65, rays)
         assert np.array_equal(got, want), (seed, trial)

@@ -2,6 +2,7 @@
 sight ``_native.visible_cells`` against a plain-Python reference. Expected numbers are worked
 out in the comments; every world is 0.05 m per cell."""
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -14,6 +15,9 @@ from turtlebot_recon.evaluation.metrics import map_cells_in_world
 from turtlebot_recon.sim import load_world
 
 from conftest import ray_cells, room, write_world
+
+# the binding takes every argument: F's own beam count unless a test gives its own
+visible_cells = partial(_native.visible_cells, beams=coverage_module.LIDAR_BEAMS)
 
 RES = 0.05
 BURGER_RADIUS_M = 0.105
@@ -47,7 +51,7 @@ def test_visible_cells_matches_the_reference_on_random_maps():
         points = points.astype(np.int32).reshape(-1, 2)   # some points land on blocking cells
         for radius in (0.0, 1.0, 2.5, 7.3, 15.0):
             for beams in (1, 7, 360):
-                got = _native.visible_cells(blocking, points, radius, beams=beams)
+                got = visible_cells(blocking, points, radius, beams=beams)
                 want = reference_visible_cells(blocking, points.tolist(), radius, beams)
                 assert got.dtype == np.bool_ and got.shape == (rows, cols)
                 assert np.array_equal(got, want), (trial, radius, beams)
@@ -59,13 +63,13 @@ def test_visible_cells_open_disc_and_blocking_viewpoint():
     # problem, N(10)); 360 beams leave no gap at 10 cells (test_frontiers' visible_unknown).
     blocking = np.zeros((41, 41), np.uint8)
     centre = np.array([[20, 20]], np.int32)
-    seen = _native.visible_cells(blocking, centre, 10.0)
+    seen = visible_cells(blocking, centre, 10.0)
     assert seen.sum() == 317
     rr, cc = np.mgrid[-20:21, -20:21]
     assert np.array_equal(seen, rr ** 2 + cc ** 2 <= 100)
     # A blocking viewpoint sees around itself but not its own cell: 316.
     blocking[20, 20] = 1
-    seen = _native.visible_cells(blocking, centre, 10.0)
+    seen = visible_cells(blocking, centre, 10.0)
     assert seen.sum() == 316 and not seen[20, 20]
 
 
@@ -79,28 +83,28 @@ def test_visible_cells_wall_hides_what_is_behind_it():
     # = 148; dc = 0..2: 21 + 19 + 19 = 59. Total 207.
     blocking = np.zeros((41, 41), np.uint8)
     blocking[:, 23] = 1
-    seen = _native.visible_cells(blocking, np.array([[20, 20]], np.int32), 10.0)
+    seen = visible_cells(blocking, np.array([[20, 20]], np.int32), 10.0)
     assert seen.sum() == 207
     assert not seen[:, 23:].any()
 
 
 def test_visible_cells_union_of_viewpoints_and_empty_query():
     blocking = np.zeros((30, 30), np.uint8)
-    a = _native.visible_cells(blocking, np.array([[5, 5]], np.int32), 4.0)
-    b = _native.visible_cells(blocking, np.array([[20, 22]], np.int32), 4.0)
-    both = _native.visible_cells(blocking, np.array([[5, 5], [20, 22]], np.int32), 4.0)
+    a = visible_cells(blocking, np.array([[5, 5]], np.int32), 4.0)
+    b = visible_cells(blocking, np.array([[20, 22]], np.int32), 4.0)
+    both = visible_cells(blocking, np.array([[5, 5], [20, 22]], np.int32), 4.0)
     assert np.array_equal(both, a | b)
-    assert not _native.visible_cells(blocking, np.zeros((0, 2), np.int32), 4.0).any()
+    assert not visible_cells(blocking, np.zeros((0, 2), np.int32), 4.0).any()
 
 
 def test_visible_cells_rejects_bad_input():
     blocking = np.zeros((10, 10), np.uint8)
     with pytest.raises(ValueError, match="visible_cells: point 1 .* outside"):
-        _native.visible_cells(blocking, np.array([[1, 1], [10, 0]], np.int32), 3.0)
+        visible_cells(blocking, np.array([[1, 1], [10, 0]], np.int32), 3.0)
     with pytest.raises(ValueError, match="visible_cells: beams"):
-        _native.visible_cells(blocking, np.array([[1, 1]], np.int32), 3.0, beams=0)
+        visible_cells(blocking, np.array([[1, 1]], np.int32), 3.0, beams=0)
     with pytest.raises(ValueError, match="visible_cells: blocking must be a 2-D"):
-        _native.visible_cells(np.zeros(10, np.uint8), np.array([[1, 1]], np.int32), 3.0)
+        visible_cells(np.zeros(10, np.uint8), np.array([[1, 1]], np.int32), 3.0)
 
 
 # ---------------------------------------------------------------- reachable free space F

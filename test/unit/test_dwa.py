@@ -10,21 +10,37 @@ from conftest import corridor_ahead, drive_controller, walled_room
 from turtlebot_recon import _native
 from turtlebot_recon.control import (BLOCKED, ControlInput, DwaController, DwaSettings,
                                      make_controller)
-from turtlebot_recon.robot import load_robot
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH
+from turtlebot_recon.robot import footprint_args, load_robot
 
 RES = 0.05
 WAFFLE = load_robot("turtlebot3_waffle_pi")
 BURGER = load_robot("turtlebot3_burger")
 
 
+class NativeDwa(_native.Dwa):
+    """The bound sampler, whose plan takes every argument: no goal radius, the goal far away and
+    no path ahead unless a test gives its own."""
+
+    def plan(self, *step, goal_radius_m=0.0, goal_distance_m=math.inf, path_ahead=np.zeros((0, 3))):
+        return super().plan(*step, goal_radius_m=goal_radius_m, goal_distance_m=goal_distance_m,
+                            path_ahead=path_ahead)
+
+
 def native_dwa(robot=WAFFLE, **kw):
-    box = {} if robot.is_round else dict(footprint_length_m=robot.footprint_length_m,
-                                         footprint_width_m=robot.footprint_width_m,
-                                         footprint_offset_x_m=robot.footprint_offset_x_m)
-    return _native.Dwa(max_linear_mps=robot.max_linear_mps, max_angular_radps=robot.max_angular_radps,
-                       linear_accel_mps2=robot.max_linear_accel_mps2,
-                       angular_accel_radps2=robot.max_angular_accel_radps2, radius_m=robot.radius_m,
-                       **box, **kw)
+    """The sampler with config/dwa.yaml's values (DwaSettings, as DwaController passes them),
+    forward only, ``kw`` changed."""
+    s = DwaSettings()
+    args = dict(min_linear_mps=0.0, outline_spacing_m=s.outline_spacing_m, linear_samples=s.linear_samples,
+                angular_samples=s.angular_samples, horizon_s=s.horizon_s, dt_s=s.dt_s,
+                margin_m=s.collision_margin_m, clearance_max_m=s.clearance_max_m,
+                unknown_is_obstacle=s.unknown_is_collision, occupied_threshold=OCCUPIED_THRESH,
+                heading_weight=s.heading_weight, clearance_weight=s.clearance_weight,
+                velocity_weight=s.velocity_weight)
+    return NativeDwa(max_linear_mps=robot.max_linear_mps, max_angular_radps=robot.max_angular_radps,
+                     linear_accel_mps2=robot.max_linear_accel_mps2,
+                     angular_accel_radps2=robot.max_angular_accel_radps2, **footprint_args(robot),
+                     **{**args, **kw})
 
 
 def corridor(width_cells=8, cols=200):
@@ -36,11 +52,9 @@ def corridor(width_cells=8, cols=200):
 
 def body_clearance(robot, occ, poses, res):
     """The exact check (footprint.hpp): metres from the body to the nearest obstacle, <= 0.1."""
-    box = {} if robot.is_round else dict(footprint_length_m=robot.footprint_length_m,
-                                         footprint_width_m=robot.footprint_width_m,
-                                         footprint_offset_x_m=robot.footprint_offset_x_m)
     return _native.footprint_clearance(occ, res, (0.0, 0.0), np.asarray(poses, float).reshape(-1, 3),
-                                       radius_m=robot.radius_m, **box, max_m=0.1)
+                                       **footprint_args(robot), max_m=0.1, occupied_threshold=OCCUPIED_THRESH,
+                                       unknown_is_obstacle=False)
 
 
 def test_straight_corridor_goes_forward_at_the_top_of_the_window():

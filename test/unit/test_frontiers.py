@@ -7,6 +7,7 @@ plain-Python ray caster written here with the same beam end points and Bresenham
 random maps with fixed seeds, and against hand counts.
 """
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -19,10 +20,14 @@ from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, de
                                          find_frontier_cells)
 from turtlebot_recon.exploration.goals import GoalBook
 from turtlebot_recon.geometry import cell_to_xy
-from turtlebot_recon.planning import CostmapSettings, dijkstra, make_costmap, nearest_accessible
+from turtlebot_recon.planning import CostmapSettings, PlannerSettings, dijkstra, make_costmap, nearest_accessible
 from turtlebot_recon.robot import load_robot
 
 from conftest import ray_cells
+
+# the binding takes every argument: the frontier gain's own (FrontierSettings) unless a test gives its own
+visible_unknown = partial(_native.visible_unknown, beams=FrontierSettings().gain_beams,
+                          free_threshold=FrontierSettings().free_threshold)
 
 RES = 0.05
 UNKNOWN, FREE, WALL = -1, 0, 100
@@ -198,7 +203,7 @@ def test_path_cost_is_the_dijkstra_field_and_gain_the_ray_count(burger_costmap_s
     for f in frontiers:
         assert f.path_cost_m == float(field[f.goal_cell])
         # 3.5 m / 0.05 m = 70 cells, 180 beams (the settings' defaults).
-        expected = _native.visible_unknown(occ, np.array([f.goal_cell], np.int32), 70.0,
+        expected = visible_unknown(occ, np.array([f.goal_cell], np.int32), 70.0,
                                            beams=180, free_threshold=25)[0]
         assert f.gain == expected > 0
     # Room B's goal is through the door: farther by path than by straight line.
@@ -347,7 +352,7 @@ def test_extension_into_unknown(burger_costmap_settings):
     occ = gap_room()
     costmap = make_costmap(occ, RES, burger_costmap_settings)
     robot = (10, 14)
-    field = dijkstra(costmap, robot, unknown_cost=0, resolution=RES)
+    field = dijkstra(costmap, robot, RES, PlannerSettings(unknown_cost=0))
 
     def goal(occupancy, extend_m, cost_to_come):
         costmap_here = make_costmap(occupancy, RES, burger_costmap_settings)
@@ -363,8 +368,8 @@ def test_extension_into_unknown(burger_costmap_settings):
     # A wall at (23, 14) stops it after rows 21 and 22.
     walled = occ.copy()
     walled[23, 14] = WALL
-    assert goal(walled, 0.25, dijkstra(make_costmap(walled, RES, burger_costmap_settings), robot,
-                                       unknown_cost=0, resolution=RES)) == ((22, 14), True)
+    assert goal(walled, 0.25, dijkstra(make_costmap(walled, RES, burger_costmap_settings), robot, RES,
+                                       PlannerSettings(unknown_cost=0))) == ((22, 14), True)
     # With the default field (unknown forbidden) the extended point (25, 14) snaps back to
     # the known side: (19, 14) is 6 cells away, (19, 13) and (19, 15) sqrt(37).
     assert goal(occ, 0.25, None) == ((19, 14), True)
@@ -530,7 +535,7 @@ def test_visible_unknown_matches_the_reference_on_random_maps():
         cells = cells.astype(np.int32)
         for radius in (0.0, 1.0, 2.5, 7.3, 15.0):
             for beams in (1, 7, 180):
-                got = _native.visible_unknown(occ, cells, radius, beams=beams, free_threshold=25)
+                got = visible_unknown(occ, cells, radius, beams=beams, free_threshold=25)
                 want = [reference_visible_unknown(occ, tuple(c), radius, beams) for c in cells]
                 assert got.dtype == np.int32
                 assert got.tolist() == want, (trial, radius, beams)
@@ -544,11 +549,11 @@ def test_visible_unknown_open_disc():
     occ = np.full((41, 41), UNKNOWN, np.int8)
     occ[20, 20] = FREE
     centre = np.array([[20, 20]], np.int32)
-    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
-    assert 0.95 * 316 <= _native.visible_unknown(occ, centre, 10.0, beams=180)[0] < 316
+    assert visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
+    assert 0.95 * 316 <= visible_unknown(occ, centre, 10.0, beams=180)[0] < 316
     # An unknown query cell counts itself: 317.
     occ[20, 20] = UNKNOWN
-    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 317
+    assert visible_unknown(occ, centre, 10.0, beams=360)[0] == 317
 
 
 def test_visible_unknown_wall_blocks_the_view():
@@ -563,10 +568,10 @@ def test_visible_unknown_wall_blocks_the_view():
     occ[:, 23] = WALL
     centre = np.array([[20, 20]], np.int32)
     assert sum(2 * math.isqrt(100 - dc * dc) + 1 for dc in range(-10, 3)) == 207
-    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 206
+    assert visible_unknown(occ, centre, 10.0, beams=360)[0] == 206
     # Without the wall: 316 (test above).
     occ[:, 23] = UNKNOWN
-    assert _native.visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
+    assert visible_unknown(occ, centre, 10.0, beams=360)[0] == 316
 
 
 def test_visible_unknown_along_a_corridor():
@@ -574,29 +579,29 @@ def test_visible_unknown_along_a_corridor():
     row = np.full((1, 20), UNKNOWN, np.int8)
     row[0, 0] = FREE
     query = np.array([[0, 0]], np.int32)
-    assert _native.visible_unknown(row, query, 5.0)[0] == 5
+    assert visible_unknown(row, query, 5.0)[0] == 5
     row[0, 3] = 26          # occupied (> 25): only cols 1, 2 -> 2
-    assert _native.visible_unknown(row, query, 5.0)[0] == 2
+    assert visible_unknown(row, query, 5.0)[0] == 2
     row[0, 3] = 25          # free: cols 1, 2, 4, 5 -> 4
-    assert _native.visible_unknown(row, query, 5.0)[0] == 4
-    assert _native.visible_unknown(row, query, 5.0, free_threshold=20)[0] == 2
+    assert visible_unknown(row, query, 5.0)[0] == 4
+    assert visible_unknown(row, query, 5.0, free_threshold=20)[0] == 2
     # The query cell never blocks its own rays, even when it is occupied.
     row[0, 0] = WALL
     row[0, 3] = UNKNOWN
-    assert _native.visible_unknown(row, query, 5.0)[0] == 5
+    assert visible_unknown(row, query, 5.0)[0] == 5
 
 
 def test_visible_unknown_arguments():
     occ = np.full((8, 8), UNKNOWN, np.int8)
     cells = np.array([[1, 2], [5, 6]], np.int32)
-    got = _native.visible_unknown(occ, cells, 3.0)
+    got = visible_unknown(occ, cells, 3.0)
     # Any layout is accepted (converted): a Fortran-ordered copy gives the same counts.
-    fortran = _native.visible_unknown(np.asfortranarray(occ), np.asfortranarray(cells), 3.0)
+    fortran = visible_unknown(np.asfortranarray(occ), np.asfortranarray(cells), 3.0)
     assert fortran.tolist() == got.tolist()
-    assert _native.visible_unknown(occ, np.zeros((0, 2), np.int32), 3.0).shape == (0,)
+    assert visible_unknown(occ, np.zeros((0, 2), np.int32), 3.0).shape == (0,)
     with pytest.raises(ValueError, match="outside"):
-        _native.visible_unknown(occ, np.array([[8, 0]], np.int32), 3.0)
+        visible_unknown(occ, np.array([[8, 0]], np.int32), 3.0)
     with pytest.raises(ValueError, match="beams"):
-        _native.visible_unknown(occ, cells, 3.0, beams=0)
+        visible_unknown(occ, cells, 3.0, beams=0)
     with pytest.raises(ValueError, match=r"\(n, 2\)"):
-        _native.visible_unknown(occ, np.array([1, 2, 3], np.int32), 3.0)
+        visible_unknown(occ, np.array([1, 2, 3], np.int32), 3.0)

@@ -1,6 +1,8 @@
 """iLQR tracking for the unicycle (include/turtlebot_recon/ilqr.hpp, bound as ilqr_track): it
 lowers the tracking cost of a perturbed start, its gains stabilise the nominal trajectory, its
 controls keep their bounds and its states are the motion model's rollout of its controls."""
+from functools import partial
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,9 @@ DT = 0.05           # s, MPPI's step (56 steps: 2.8 s)
 T = 56
 WAFFLE = dict(u_min=[-0.26, -1.82], u_max=[0.26, 1.82])   # the waffle_pi's limits (m/s, rad/s)
 WIDE = dict(u_min=[-1.0, -2.0], u_max=[1.0, 2.0])         # an idealised unicycle's
+# the binding takes every weight: these (the diagonals of Q, R, Qf, S) unless a test gives its own
+ilqr_track = partial(_native.ilqr_track, q=[1.0, 1.0, 0.1], r=[0.1, 0.01], qf=[10.0, 10.0, 1.0],
+                     r_change=[0.0, 0.0], max_iterations=10)
 
 
 def rollout(x0, u, dt=DT):
@@ -33,7 +38,7 @@ def arc_reference(v=0.5, w=0.4):
 def test_the_tracking_cost_falls_from_a_perturbed_start():
     x_ref, u_ref = arc_reference()
     x0 = np.array([0.15, -0.1, 0.3])        # 18 cm and 17 deg off the reference's start
-    r = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, **WIDE)
+    r = ilqr_track(x0, x_ref, u_ref, dt=DT, **WIDE)
     cost = r.cost_history
     assert len(cost) >= 3 and (np.diff(cost) < 0).all()           # every accepted step lowers it
     # open loop (the reference's own controls) from x0 costs at least the start's error each step
@@ -46,14 +51,14 @@ def test_the_tracking_cost_falls_from_a_perturbed_start():
 
 def test_states_are_the_motion_models_rollout_of_the_controls():
     x_ref, u_ref = arc_reference()
-    r = _native.ilqr_track([0.1, 0.1, -0.2], x_ref, u_ref, dt=DT, **WIDE)
+    r = ilqr_track([0.1, 0.1, -0.2], x_ref, u_ref, dt=DT, **WIDE)
     assert r.states.shape == (T + 1, 3) and r.controls.shape == (T, 2) and r.gains.shape == (T, 2, 3)
     np.testing.assert_allclose(r.states, rollout([0.1, 0.1, -0.2], r.controls), atol=1e-12)
 
 
 def test_on_the_reference_nothing_changes():
     x_ref, u_ref = arc_reference()
-    r = _native.ilqr_track(x_ref[0], x_ref, u_ref, dt=DT, **WIDE)
+    r = ilqr_track(x_ref[0], x_ref, u_ref, dt=DT, **WIDE)
     assert r.cost_history[0] == pytest.approx(0.0, abs=1e-20)
     np.testing.assert_allclose(r.controls, u_ref, atol=1e-12)
 
@@ -63,7 +68,7 @@ def test_the_gains_stabilise_the_nominal_trajectory(offset):
     """u = u_ref + K_t (x - x_ref) from a start off the reference converges back onto it; the
     reference's own controls (open loop) keep the offset or worsen it."""
     x_ref, u_ref = arc_reference()
-    gains = _native.ilqr_track(x_ref[0], x_ref, u_ref, dt=DT, **WIDE).gains
+    gains = ilqr_track(x_ref[0], x_ref, u_ref, dt=DT, **WIDE).gains
     x = x_ref[0] + np.array(offset)
     x_open = x.copy()
     for t in range(T):
@@ -84,13 +89,13 @@ def test_controls_keep_the_robots_limits():
     """A reference at 0.25 m/s started 0.3 m behind: catching up needs more than the waffle_pi's
     0.26 m/s, so v sits on its bound for a while and never beyond it."""
     x_ref, u_ref = arc_reference(v=0.25, w=1.0)
-    r = _native.ilqr_track([-0.3, 0.0, 0.0], x_ref, u_ref, dt=DT, **WAFFLE)
+    r = ilqr_track([-0.3, 0.0, 0.0], x_ref, u_ref, dt=DT, **WAFFLE)
     lo, hi = np.array(WAFFLE["u_min"]), np.array(WAFFLE["u_max"])
     assert (r.controls >= lo - 1e-12).all() and (r.controls <= hi + 1e-12).all()
     assert (np.isclose(r.controls[:, 0], hi[0])).sum() >= 5
     assert (np.diff(r.cost_history) < 0).all()
     # an initial guess outside the bounds is clamped first
-    r = _native.ilqr_track([-0.3, 0.0, 0.0], x_ref, u_ref, u_init=np.tile([5.0, -9.0], (T, 1)),
+    r = ilqr_track([-0.3, 0.0, 0.0], x_ref, u_ref, u_init=np.tile([5.0, -9.0], (T, 1)),
                            dt=DT, **WAFFLE)
     assert (r.controls >= lo - 1e-12).all() and (r.controls <= hi + 1e-12).all()
 
@@ -99,7 +104,7 @@ def test_the_yaw_error_is_wrapped():
     """A reference heading of pi and a start at -pi + 0.1: 0.1 rad apart, not 2 pi - 0.1."""
     u_ref = np.tile([0.3, 0.0], (T, 1))
     x_ref = rollout([0.0, 0.0, np.pi], u_ref)
-    r = _native.ilqr_track([0.0, 0.0, -np.pi + 0.1], x_ref, u_ref, dt=DT, **WIDE)
+    r = ilqr_track([0.0, 0.0, -np.pi + 0.1], x_ref, u_ref, dt=DT, **WIDE)
     assert np.abs(r.controls[:, 1]).max() < 1.0          # no turn the long way round
     assert abs(wrap(r.states[-1, 2] - np.pi)) < 0.02
 
@@ -122,8 +127,8 @@ def test_the_change_cost_smooths_the_command_and_is_minimised():
     x0 = np.array([0.15, -0.1, 0.3])
     u_prev = np.array([0.0, -1.0])                  # the robot was turning the other way
     weights = dict(q=[5.0, 5.0, 1.0], r=[1.0, 0.1], qf=[50.0, 50.0, 10.0])
-    plain = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, **weights, **WIDE)
-    smooth = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, r_change=[20.0, 2.0],
+    plain = ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, **weights, **WIDE)
+    smooth = ilqr_track(x0, x_ref, u_ref, dt=DT, u_prev=u_prev, r_change=[20.0, 2.0],
                                 max_iterations=50, **weights, **WIDE)
     change = lambda u: np.diff(np.vstack([u_prev, u]), axis=0)             # noqa: E731
     assert ((change(smooth.controls) ** 2).sum(axis=0) < 0.5 * (change(plain.controls) ** 2).sum(axis=0)).all()
@@ -140,7 +145,7 @@ def test_the_change_cost_smooths_the_command_and_is_minimised():
                 assert full_cost(x0, u, *args[1:]) > best - 1e-9
     # without u_prev the first control has no change cost: it equals the plain solution's start
     # more closely than with it
-    free = _native.ilqr_track(x0, x_ref, u_ref, dt=DT, r_change=[20.0, 2.0], max_iterations=50,
+    free = ilqr_track(x0, x_ref, u_ref, dt=DT, r_change=[20.0, 2.0], max_iterations=50,
                               **weights, **WIDE)
     assert np.linalg.norm(free.controls[0] - u_prev) > np.linalg.norm(smooth.controls[0] - u_prev)
 
@@ -161,4 +166,4 @@ def test_bad_arguments_raise_one_line(kwargs, message):
     x_ref, u_ref = arc_reference()
     args = {**dict(x0=[0.0, 0.0, 0.0], x_ref=x_ref, u_ref=u_ref, dt=DT), **kwargs}
     with pytest.raises(ValueError, match="ilqr_track: " + message):
-        _native.ilqr_track(**args)
+        ilqr_track(**{**WIDE, **args})

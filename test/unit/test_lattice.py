@@ -20,6 +20,7 @@ from turtlebot_recon.config import ConfigError
 from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerSettings,
                                       PlanningError, footprint_clear, footprint_costmap,
                                       lattice_cost_to_come, make_costmap, plan, plan_lattice)
+from turtlebot_recon.planning.costmap import cost_model
 from turtlebot_recon.robot import load_robot
 
 RES = 0.05
@@ -386,7 +387,7 @@ def test_burger_straight_path_costs_what_the_grid_search_does():
     # both maps, no turn; both cost 40 x 0.05 = 2.0 m.
     occ = walled(80, 120)
     costmap = make_costmap(occ, RES, CostmapSettings.for_robot(BURGER))
-    _, grid_cost = _native.astar(costmap, (40, 30), (40, 70), visit_sensitivity=0.0)
+    _, grid_cost = _native.astar(costmap, (40, 30), (40, 70), **cost_model(PlannerSettings(visit_sensitivity=0.0), RES))
     path = lattice(occ, BURGER, centre(40, 30), centre(40, 70)[:2])
     assert grid_cost == pytest.approx(2.0) and path.cost == pytest.approx(2.0)
 
@@ -399,7 +400,8 @@ def test_burger_path_cost_close_to_the_grid_search_around_a_block():
     occ = walled(60, 80)
     occ[20:40, 30:50] = 100
     costmap = make_costmap(occ, RES, CostmapSettings.for_robot(BURGER))
-    _, grid_cost = _native.astar(costmap, (10, 10), (50, 70), visit_sensitivity=0.0, cost_weight=0.0)
+    _, grid_cost = _native.astar(costmap, (10, 10), (50, 70),
+                                 **cost_model(PlannerSettings(visit_sensitivity=0.0, cost_weight=0.0), RES))
     path = lattice(occ, BURGER, centre(10, 10), centre(50, 70)[:2], cost_weight=0.0)
     assert 0.92 * grid_cost <= path.length_m <= 1.01 * grid_cost
     assert path.cost == pytest.approx(path.length_m + path.turned_rad * 0.22 / 0.8)

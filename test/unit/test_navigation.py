@@ -10,7 +10,8 @@ from turtlebot_recon.planning import (CostmapSettings, LatticeSettings, PlannerS
                                       lattice_cost_to_come, make_costmap, plan, plan_lattice)
 from turtlebot_recon.control import BodyCheck
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
-from turtlebot_recon.robot import load_robot
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH
+from turtlebot_recon.robot import footprint_args, load_robot
 
 RES = 0.05
 # The navigator's own rules (plans, replans, manoeuvres), driven by the lattice plan's exact
@@ -205,16 +206,17 @@ WAFFLE = load_robot("turtlebot3_waffle_pi")
 def body_clearance(robot, occ, poses):
     """Metres from the robot's body (box or disc) at each pose to the nearest obstacle square
     (0: they meet; capped at 0.1 m), by the exact check of footprint.hpp."""
-    box = dict(footprint_length_m=robot.footprint_length_m, footprint_width_m=robot.footprint_width_m,
-               footprint_offset_x_m=robot.footprint_offset_x_m, radius_m=robot.radius_m)
     return _native.footprint_clearance(occ, RES, (0.0, 0.0), np.asarray(poses, float).reshape(-1, 3),
-                                       **box, max_m=0.1)
+                                       **footprint_args(robot), max_m=0.1, occupied_threshold=OCCUPIED_THRESH,
+                                       unknown_is_obstacle=False)
 
 
 def disc_clearance(robot, occ, xy):
     """Metres from the turning disc (radius_m) at each (x, y) to the nearest obstacle square."""
     poses = np.column_stack([np.asarray(xy, float).reshape(-1, 2), np.zeros(len(xy))])
-    return _native.footprint_clearance(occ, RES, (0.0, 0.0), poses, radius_m=robot.radius_m, max_m=0.1)
+    return _native.footprint_clearance(occ, RES, (0.0, 0.0), poses, footprint_length_m=0.0, footprint_width_m=0.0,
+                                       footprint_offset_x_m=0.0, radius_m=robot.radius_m, max_m=0.1,
+                                       occupied_threshold=OCCUPIED_THRESH, unknown_is_obstacle=False)
 
 
 def drive_robot(nav, robot, occ, pose, seconds):

@@ -19,9 +19,27 @@ import numpy as np
 import pytest
 
 from turtlebot_recon.config import ConfigError, from_dict
-from turtlebot_recon.mapping import GridSettings, OccupancyGrid, ScanStats, make_grid
+from turtlebot_recon.mapping import GridSettings, ScanStats, make_grid
+from turtlebot_recon.mapping import OccupancyGrid as NativeGrid
 
 from conftest import grid_traversal
+
+GRID = GridSettings()
+
+
+class OccupancyGrid(NativeGrid):
+    """The binding takes every argument: GridSettings' values unless a test gives its own, and
+    no clearing along beams without a return (no_return_clear_m 0) unless a test asks."""
+
+    def __init__(self, resolution, **kw):
+        keys = ("width_m", "height_m", "origin_x", "origin_y", "p_hit", "p_miss", "p_min", "p_max", "grow_margin_m")
+        super().__init__(resolution, **{**{k: getattr(GRID, k) for k in keys}, **kw})
+
+    def insert_scan(self, *scan, no_return_clear_m=0.0, range_cap_m=0.0):
+        return super().insert_scan(*scan, no_return_clear_m=no_return_clear_m, range_cap_m=range_cap_m)
+
+    def mark_bumper(self, *hit, cells=GRID.bumper_cells):
+        return super().mark_bumper(*hit, cells=cells)
 
 HIT, MISS, L_MIN, L_MAX = 0.847298, -0.405465, -1.992430, 3.476099
 INF, NAN = math.inf, math.nan

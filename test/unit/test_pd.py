@@ -10,7 +10,8 @@ from turtlebot_recon import _native
 from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.control import (BLOCKED, ROTATING, ControlInput, PdController, PdSettings,
                                      make_controller)
-from turtlebot_recon.robot import load_robot
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH
+from turtlebot_recon.robot import footprint_args, load_robot
 
 RES = 0.05
 WAFFLE = load_robot("turtlebot3_waffle_pi")
@@ -18,11 +19,9 @@ BURGER = load_robot("turtlebot3_burger")
 
 
 def body_clearance(robot, occ, poses, res=RES):
-    box = {} if robot.is_round else dict(footprint_length_m=robot.footprint_length_m,
-                                         footprint_width_m=robot.footprint_width_m,
-                                         footprint_offset_x_m=robot.footprint_offset_x_m)
     return _native.footprint_clearance(occ, res, (0.0, 0.0), np.asarray(poses, float).reshape(-1, 3),
-                                       radius_m=robot.radius_m, **box, max_m=0.1)
+                                       **footprint_args(robot), max_m=0.1, occupied_threshold=OCCUPIED_THRESH,
+                                       unknown_is_obstacle=False)
 
 
 def step(ctl, pose, path, velocity=(0.0, 0.0), occ=None, now=0.0):

@@ -6,6 +6,7 @@ with fixed seeds, and against hand-worked numbers on small maps.
 """
 import heapq
 import math
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -14,8 +15,10 @@ from scipy import ndimage
 
 from turtlebot_recon import _native
 from turtlebot_recon.config import ConfigError, from_dict
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH
 from turtlebot_recon.planning import (CostmapSettings, PlannerSettings, PlanningError,
                                       make_costmap, plan)
+from turtlebot_recon.planning.costmap import cost_model
 from turtlebot_recon.robot import load_robot
 
 from conftest import bresenham
@@ -23,6 +26,15 @@ from conftest import bresenham
 RES = 0.05
 SQRT2 = math.sqrt(2.0)
 LETHAL, INSCRIBED, UNKNOWN = 254, 253, 255
+
+# The bindings take every argument: the planner's own values (PlannerSettings, INSCRIBED and up
+# impassable, map_server's occupied threshold) at RES, unless a test gives its own.
+astar = partial(_native.astar, **cost_model(PlannerSettings(), RES))
+dijkstra = partial(_native.dijkstra, **cost_model(PlannerSettings(), RES))
+inflate = partial(_native.inflate, occupied_threshold=OCCUPIED_THRESH, unknown_is_obstacle=False)
+nearest_accessible = partial(_native.nearest_accessible, max_cost=INSCRIBED - 1, max_radius_m=2.0,
+                             resolution=RES)
+shortcut = partial(_native.shortcut, lethal_cost=INSCRIBED)
 MOVES = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if (dr, dc) != (0, 0)]
 
 
@@ -126,7 +138,7 @@ def random_rect_occupancy(rng, shape, fill=0.2, unknown=0.0):
 def random_costmap(rng, shape):
     """An inflated costmap of random rectangles with a few unknown cells and random graded costs."""
     occ = random_rect_occupancy(rng, shape, fill=rng.uniform(0.05, 0.3), unknown=0.05)
-    cost = _native.inflate(occ, RES, 0.05, rng.uniform(0.05, 0.3), rng.uniform(0.0, 10.0))
+    cost = inflate(occ, RES, 0.05, rng.uniform(0.05, 0.3), rng.uniform(0.0, 10.0))
     noisy = (rng.random(shape) < 0.1) & (cost < INSCRIBED)
     cost[noisy] = rng.integers(0, 253, noisy.sum())
     return cost
@@ -197,7 +209,7 @@ def test_inflation_values_at_hand_computed_distances():
     # cost = floor(252 exp(-5 (d - 0.1))) for 0.1 < d <= 0.3.
     occ = np.zeros((21, 21), np.int8)
     occ[10, 10] = 100
-    cost = _native.inflate(occ, RES, 0.1, 0.3, 5.0)
+    cost = inflate(occ, RES, 0.1, 0.3, 5.0)
     assert cost.dtype == np.uint8
     expected = {
         (0, 0): LETHAL,          # d = 0
@@ -230,7 +242,7 @@ def test_inflation_matches_formula_on_random_maps():
         inscribed, k = rng.uniform(0.0, 0.2), rng.uniform(0.0, 8.0)
         inflation = inscribed + rng.uniform(0.0, 0.5)
         for unknown_is_obstacle in (False, True):
-            cost = _native.inflate(occ, RES, inscribed, inflation, k,
+            cost = inflate(occ, RES, inscribed, inflation, k,
                                    unknown_is_obstacle=unknown_is_obstacle)
             obstacle = (occ >= 65) | ((occ < 0) & unknown_is_obstacle)
             d = ndimage.distance_transform_edt(~obstacle) * RES
@@ -250,27 +262,27 @@ def test_inflation_thresholds_and_unknown():
     occ[2, 1] = 64   # below the threshold: free
     occ[2, 4] = 65   # at the threshold: obstacle
     occ[2, 7] = -1   # unknown
-    cost = _native.inflate(occ, 1.0, 0.0, 0.0, 1.0)  # no inflation at all
+    cost = inflate(occ, 1.0, 0.0, 0.0, 1.0)  # no inflation at all
     assert cost[2, 1] == 0 and cost[2, 4] == LETHAL and cost[2, 7] == UNKNOWN
     assert (cost == 0).sum() == occ.size - 2
-    cost = _native.inflate(occ, 1.0, 1.0, 1.0, 1.0, unknown_is_obstacle=True)
+    cost = inflate(occ, 1.0, 1.0, 1.0, 1.0, unknown_is_obstacle=True)
     assert cost[2, 7] == LETHAL and cost[2, 8] == INSCRIBED and cost[1, 7] == INSCRIBED
-    cost = _native.inflate(occ, 1.0, 1.0, 1.0, 1.0, occupied_threshold=60)
+    cost = inflate(occ, 1.0, 1.0, 1.0, 1.0, occupied_threshold=60)
     assert cost[2, 1] == LETHAL
 
 
 def test_inflation_rejects_bad_arguments():
     occ = np.zeros((3, 3), np.int8)
     with pytest.raises(ValueError, match="inflation_radius_m .* must be >= inscribed_radius_m"):
-        _native.inflate(occ, RES, 0.3, 0.2, 5.0)
+        inflate(occ, RES, 0.3, 0.2, 5.0)
     with pytest.raises(ValueError, match="resolution"):
-        _native.inflate(occ, -1.0, 0.1, 0.2, 5.0)
+        inflate(occ, -1.0, 0.1, 0.2, 5.0)
     with pytest.raises(ValueError, match="cost_scaling_factor"):
-        _native.inflate(occ, RES, 0.1, 0.2, -5.0)
+        inflate(occ, RES, 0.1, 0.2, -5.0)
     with pytest.raises(ValueError, match="occupied_threshold"):
-        _native.inflate(occ, RES, 0.1, 0.2, 5.0, occupied_threshold=0)
+        inflate(occ, RES, 0.1, 0.2, 5.0, occupied_threshold=0)
     with pytest.raises(ValueError, match="inscribed_radius_m"):
-        _native.inflate(occ, RES, -0.1, 0.2, 5.0)
+        inflate(occ, RES, -0.1, 0.2, 5.0)
 
 
 # ---------------------------------------------------------------- A* and Dijkstra
@@ -287,9 +299,9 @@ def test_astar_is_optimal_and_valid_on_random_grids(seed):
     cells = passable_cells(cost, model["unknown_cost"], model["lethal_cost"])
     assert len(cells) >= 2, f"seed {seed}: the random costmap has no start and goal; pick another seed"
     start, goal = (tuple(int(v) for v in cells[i]) for i in rng.choice(len(cells), 2))
-    path, total = _native.astar(cost, start, goal, **model)
+    path, total = astar(cost, start, goal, **model)
     ref = reference_dijkstra(cost, start, **model)
-    field = _native.dijkstra(cost, start, **model)
+    field = dijkstra(cost, start, **model)
     # The native Dijkstra field is the reference field (float32).
     np.testing.assert_allclose(field, ref, rtol=1e-6)
     if np.isinf(ref[goal]):
@@ -303,14 +315,14 @@ def test_astar_is_optimal_and_valid_on_random_grids(seed):
 
 def test_astar_on_open_floor_is_straight():
     cost = np.zeros((20, 30), np.uint8)
-    path, total = _native.astar(cost, (2, 3), (2, 25))
+    path, total = astar(cost, (2, 3), (2, 25))
     assert path.tolist() == [[2, c] for c in range(3, 26)]
     assert total == pytest.approx(22 * RES)
-    path, total = _native.astar(cost, (0, 0), (10, 10))
+    path, total = astar(cost, (0, 0), (10, 10))
     assert path.tolist() == [[i, i] for i in range(11)]
     assert total == pytest.approx(10 * SQRT2 * RES)
     # Off the diagonal: 5 diagonal + 10 straight steps (octile), then one straight segment.
-    path, total = _native.astar(cost, (0, 0), (5, 15))
+    path, total = astar(cost, (0, 0), (5, 15))
     assert total == pytest.approx((5 * SQRT2 + 10) * RES)
     assert len(path) == 16
     assert plan(cost, (0, 0), (5, 15), PlannerSettings()).tolist() == [[0, 0], [5, 15]]
@@ -318,7 +330,7 @@ def test_astar_on_open_floor_is_straight():
 
 def test_start_equals_goal():
     cost = np.zeros((4, 4), np.uint8)
-    path, total = _native.astar(cost, (1, 2), (1, 2))
+    path, total = astar(cost, (1, 2), (1, 2))
     assert path.tolist() == [[1, 2]] and total == 0.0
     assert plan(cost, (1, 2), (1, 2), PlannerSettings()).tolist() == [[1, 2]]
 
@@ -326,20 +338,20 @@ def test_start_equals_goal():
 def test_visit_penalty_moves_the_path_off_visited_cells():
     cost = ring_map()
     start, goal = (2, 0), (2, 6)
-    path, total = _native.astar(cost, start, goal)
+    path, total = astar(cost, start, goal)
     assert total == pytest.approx(0.50) and [0, 3] in path.tolist()  # bottom route
     visits = np.zeros(cost.shape, np.int32)
     # 3 visits on (0, 3): bottom = 0.50 + 0.05 * 0.5 * 3 = 0.575 < 0.60: still the bottom.
     visits[0, 3] = 3
-    path, total = _native.astar(cost, start, goal, visits=visits)
+    path, total = astar(cost, start, goal, visits=visits)
     assert total == pytest.approx(0.575) and [0, 3] in path.tolist()
     # 5 visits: bottom = 0.50 + 0.05 * 0.5 * 5 = 0.625 > 0.60: the longer, unvisited top route.
     visits[0, 3] = 5
-    path, total = _native.astar(cost, start, goal, visits=visits)
+    path, total = astar(cost, start, goal, visits=visits)
     assert total == pytest.approx(0.60) and [5, 3] in path.tolist() and [0, 3] not in path.tolist()
     assert check_path(path, cost, start, goal, visits=visits) == pytest.approx(0.60)
     # A lower sensitivity, 0.3: bottom = 0.50 + 0.05 * 0.3 * 5 = 0.575: back to the bottom.
-    path, total = _native.astar(cost, start, goal, visits=visits, visit_sensitivity=0.3)
+    path, total = astar(cost, start, goal, visits=visits, visit_sensitivity=0.3)
     assert total == pytest.approx(0.575) and [0, 3] in path.tolist()
     # Through the facade too (visited cells of the bottom route are avoided).
     route = plan(cost, start, goal, PlannerSettings(shortcut=False), visits=visits)
@@ -350,10 +362,10 @@ def test_costmap_values_weigh_the_path():
     cost = ring_map()
     cost[0, 1:6] = 126  # bottom corridor at half cost: 10 steps, 5 of them into cost 126
     # bottom = 0.50 + 5 * 0.05 * 126 / 252 = 0.625 > top 0.60
-    path, total = _native.astar(cost, (2, 0), (2, 6))
+    path, total = astar(cost, (2, 0), (2, 6))
     assert total == pytest.approx(0.60) and [5, 3] in path.tolist()
     # cost_weight 0: the costmap only forbids; the shorter bottom route wins again.
-    path, total = _native.astar(cost, (2, 0), (2, 6), cost_weight=0.0)
+    path, total = astar(cost, (2, 0), (2, 6), cost_weight=0.0)
     assert total == pytest.approx(0.50) and [0, 3] in path.tolist()
 
 
@@ -362,19 +374,19 @@ def test_unknown_cells_forbidden_or_priced():
     cost = np.full((3, 5), LETHAL, np.uint8)
     cost[1, :] = 0
     cost[1, 2] = UNKNOWN
-    path, total = _native.astar(cost, (1, 0), (1, 4))  # unknown_cost = -1: forbidden
+    path, total = astar(cost, (1, 0), (1, 4))  # unknown_cost = -1: forbidden
     assert path.shape == (0, 2) and math.isinf(total)
     with pytest.raises(PlanningError, match="unreachable"):
         plan(cost, (1, 0), (1, 4), PlannerSettings())
     # Allowed at cost 100: 4 steps of 0.05 m, one into the unknown cell:
     # 0.20 + 0.05 * 100 / 252 = 0.21984
-    path, total = _native.astar(cost, (1, 0), (1, 4), unknown_cost=100)
+    path, total = astar(cost, (1, 0), (1, 4), unknown_cost=100)
     assert path.tolist() == [[1, c] for c in range(5)]
     assert total == pytest.approx(0.20 + 0.05 * 100 / 252)
-    assert _native.astar(cost, (1, 0), (1, 4), unknown_cost=0)[1] == pytest.approx(0.20)
+    assert astar(cost, (1, 0), (1, 4), unknown_cost=0)[1] == pytest.approx(0.20)
     # A goal in unknown space is named.
     with pytest.raises(ValueError, match=r"goal \(1, 2\) is in unknown space"):
-        _native.astar(cost, (1, 0), (1, 2))
+        astar(cost, (1, 0), (1, 2))
     assert len(plan(cost, (1, 0), (1, 2), PlannerSettings(unknown_cost=50, shortcut=False))) == 3
 
 
@@ -382,8 +394,8 @@ def test_inscribed_cells_are_impassable_unless_lethal_cost_is_raised():
     cost = np.full((3, 5), LETHAL, np.uint8)
     cost[1, :] = 0
     cost[1, 2] = INSCRIBED
-    assert _native.astar(cost, (1, 0), (1, 4))[0].shape == (0, 2)
-    path, total = _native.astar(cost, (1, 0), (1, 4), lethal_cost=254)
+    assert astar(cost, (1, 0), (1, 4))[0].shape == (0, 2)
+    path, total = astar(cost, (1, 0), (1, 4), lethal_cost=254)
     assert len(path) == 5 and total == pytest.approx(0.20 + 0.05 * 253 / 252)
 
 
@@ -395,9 +407,9 @@ def test_dijkstra_with_targets_settles_them_exactly_and_stops(seed):
     cells = passable_cells(cost, -1, 253)
     assert len(cells) >= 4, f"seed {seed}: the random costmap has no start and 3 targets; pick another seed"
     start = tuple(int(v) for v in cells[0])
-    full = _native.dijkstra(cost, start)
+    full = dijkstra(cost, start)
     targets = cells[rng.choice(len(cells), 3, replace=False)].astype(np.int32)
-    part = _native.dijkstra(cost, start, targets=targets)
+    part = dijkstra(cost, start, targets=targets)
     settled = np.isfinite(part)
     # Every settled cell holds its exact cost, every target reachable at all is settled, and
     # the search stopped at the dearest target: nothing dearer was settled.
@@ -413,25 +425,25 @@ def test_dijkstra_with_targets_settles_them_exactly_and_stops(seed):
 
 def test_dijkstra_targets_stop_early_and_are_checked():
     cost = np.zeros((50, 50), np.uint8)
-    part = _native.dijkstra(cost, (0, 0), targets=np.array([[2, 2]]))
+    part = dijkstra(cost, (0, 0), targets=np.array([[2, 2]]))
     assert part[2, 2] == pytest.approx(2 * math.sqrt(2) * RES, rel=1e-6)
     assert np.isinf(part[49, 49]) and np.isfinite(part).sum() < 50
-    np.testing.assert_array_equal(_native.dijkstra(cost, (0, 0), targets=np.zeros((0, 2), np.int32)),
-                                  _native.dijkstra(cost, (0, 0)))
+    np.testing.assert_array_equal(dijkstra(cost, (0, 0), targets=np.zeros((0, 2), np.int32)),
+                                  dijkstra(cost, (0, 0)))
     with pytest.raises(ValueError, match=r"dijkstra: target \(50, 0\) is outside the 50 x 50 grid"):
-        _native.dijkstra(cost, (0, 0), targets=[[1, 1], [50, 0]])
+        dijkstra(cost, (0, 0), targets=[[1, 1], [50, 0]])
     with pytest.raises(ValueError, match=r"targets must be an \(n, 2\) array"):
-        _native.dijkstra(cost, (0, 0), targets=[1, 2, 3])
+        dijkstra(cost, (0, 0), targets=[1, 2, 3])
 
 
 def test_no_corner_cutting():
     cost = np.zeros((2, 2), np.uint8)
     cost[0, 1] = LETHAL
-    path, total = _native.astar(cost, (0, 0), (1, 1))
+    path, total = astar(cost, (0, 0), (1, 1))
     assert path.tolist() == [[0, 0], [1, 0], [1, 1]] and total == pytest.approx(0.10)
     cost[1, 0] = LETHAL  # both orthogonal cells blocked: the diagonal is not a way through
-    assert _native.astar(cost, (0, 0), (1, 1))[0].shape == (0, 2)
-    assert np.isinf(_native.dijkstra(cost, (0, 0))[1, 1])
+    assert astar(cost, (0, 0), (1, 1))[0].shape == (0, 2)
+    assert np.isinf(dijkstra(cost, (0, 0))[1, 1])
 
 
 def test_endpoint_errors_name_the_endpoint():
@@ -439,15 +451,15 @@ def test_endpoint_errors_name_the_endpoint():
     cost[3, 4] = LETHAL
     cost[0, 5] = INSCRIBED
     with pytest.raises(ValueError, match=r"astar: start \(3, 4\) is in lethal cost 254"):
-        _native.astar(cost, (3, 4), (0, 0))
+        astar(cost, (3, 4), (0, 0))
     with pytest.raises(ValueError, match=r"astar: goal \(0, 5\) is in inscribed cost 253"):
-        _native.astar(cost, (0, 0), (0, 5))
+        astar(cost, (0, 0), (0, 5))
     with pytest.raises(ValueError, match=r"astar: start \(-1, 0\) is outside the 5 x 6 grid"):
-        _native.astar(cost, (-1, 0), (0, 0))
+        astar(cost, (-1, 0), (0, 0))
     with pytest.raises(ValueError, match=r"astar: goal \(0, 6\) is outside"):
-        _native.astar(cost, (0, 0), (0, 6))
+        astar(cost, (0, 0), (0, 6))
     with pytest.raises(ValueError, match=r"dijkstra: start \(3, 4\)"):
-        _native.dijkstra(cost, (3, 4))
+        dijkstra(cost, (3, 4))
     with pytest.raises(PlanningError, match=r"start \(3, 4\)"):
         plan(cost, (3, 4), (0, 0), PlannerSettings())
     with pytest.raises(PlanningError, match=r"goal \(9, 9\) is outside"):
@@ -457,19 +469,19 @@ def test_endpoint_errors_name_the_endpoint():
 def test_search_rejects_bad_arguments():
     cost = np.zeros((4, 4), np.uint8)
     with pytest.raises(ValueError, match="visits has shape"):
-        _native.astar(cost, (0, 0), (3, 3), visits=np.zeros((3, 4), np.int32))
+        astar(cost, (0, 0), (3, 3), visits=np.zeros((3, 4), np.int32))
     with pytest.raises(ValueError, match="visits must be >= 0"):
-        _native.astar(cost, (0, 0), (3, 3), visits=-np.ones((4, 4), np.int32))
+        astar(cost, (0, 0), (3, 3), visits=-np.ones((4, 4), np.int32))
     with pytest.raises(ValueError, match="visit_sensitivity"):
-        _native.astar(cost, (0, 0), (3, 3), visit_sensitivity=-0.1)
+        astar(cost, (0, 0), (3, 3), visit_sensitivity=-0.1)
     with pytest.raises(ValueError, match="cost_weight"):
-        _native.dijkstra(cost, (0, 0), cost_weight=-1.0)
+        dijkstra(cost, (0, 0), cost_weight=-1.0)
     with pytest.raises(ValueError, match="lethal_cost"):
-        _native.astar(cost, (0, 0), (3, 3), lethal_cost=255)
+        astar(cost, (0, 0), (3, 3), lethal_cost=255)
     with pytest.raises(ValueError, match="unknown_cost"):
-        _native.astar(cost, (0, 0), (3, 3), unknown_cost=253)
+        astar(cost, (0, 0), (3, 3), unknown_cost=253)
     with pytest.raises(ValueError, match="resolution"):
-        _native.astar(cost, (0, 0), (3, 3), resolution=0.0)
+        astar(cost, (0, 0), (3, 3), resolution=0.0)
 
 
 def test_resolution_scales_only_the_cost():
@@ -477,8 +489,8 @@ def test_resolution_scales_only_the_cost():
     cost = random_costmap(rng, (30, 30))
     cells = passable_cells(cost)
     start, goal = tuple(cells[0]), tuple(cells[-1])
-    p1, c1 = _native.astar(cost, start, goal, resolution=0.05)
-    p2, c2 = _native.astar(cost, start, goal, resolution=0.10)
+    p1, c1 = astar(cost, start, goal, resolution=0.05)
+    p2, c2 = astar(cost, start, goal, resolution=0.10)
     if len(p1):
         assert c2 == pytest.approx(2 * c1)
 
@@ -500,27 +512,27 @@ def reference_nearest(cost, cell, max_cost, max_radius_m, resolution):
 
 def test_nearest_accessible_hand_made():
     cost = np.full((11, 11), LETHAL, np.uint8)
-    assert _native.nearest_accessible(cost, (5, 5)) is None
+    assert nearest_accessible(cost, (5, 5)) is None
     cost[5, 8] = 0   # 3 cells right
     cost[8, 5] = 0   # 3 cells up
     cost[2, 5] = 0   # 3 cells down: the tie goes to the smallest row
-    assert _native.nearest_accessible(cost, (5, 5)) == (2, 5)
-    assert _native.nearest_accessible(cost, (5, 8)) == (5, 8)   # accessible itself
+    assert nearest_accessible(cost, (5, 5)) == (2, 5)
+    assert nearest_accessible(cost, (5, 8)) == (5, 8)   # accessible itself
     # The radius is inclusive: 3 cells = 0.15 m.
-    assert _native.nearest_accessible(cost, (5, 5), max_radius_m=0.15) == (2, 5)
-    assert _native.nearest_accessible(cost, (5, 5), max_radius_m=0.149) is None
+    assert nearest_accessible(cost, (5, 5), max_radius_m=0.15) == (2, 5)
+    assert nearest_accessible(cost, (5, 5), max_radius_m=0.149) is None
     # Unknown cells never count, whatever max_cost allows; max_cost is inclusive.
     cost[5, 5] = UNKNOWN
     cost[5, 4] = 200
     # max_cost 254 accepts lethal cells: of the four at distance 1, (4, 5) has the smallest row.
-    assert _native.nearest_accessible(cost, (5, 5), max_cost=254) == (4, 5)
-    assert _native.nearest_accessible(cost, (5, 5), max_cost=200) == (5, 4)
-    assert _native.nearest_accessible(cost, (5, 5), max_cost=199) == (2, 5)
+    assert nearest_accessible(cost, (5, 5), max_cost=254) == (4, 5)
+    assert nearest_accessible(cost, (5, 5), max_cost=200) == (5, 4)
+    assert nearest_accessible(cost, (5, 5), max_cost=199) == (2, 5)
     # From outside the grid: (-3, 5) is 5 cells from (2, 5).
-    assert _native.nearest_accessible(cost, (-3, 5), max_radius_m=0.25) == (2, 5)
-    assert _native.nearest_accessible(cost, (-3, 5), max_radius_m=0.2) is None
+    assert nearest_accessible(cost, (-3, 5), max_radius_m=0.25) == (2, 5)
+    assert nearest_accessible(cost, (-3, 5), max_radius_m=0.2) is None
     with pytest.raises(ValueError, match="max_cost"):
-        _native.nearest_accessible(cost, (5, 5), max_cost=255)
+        nearest_accessible(cost, (5, 5), max_cost=255)
 
 
 def test_nearest_accessible_matches_brute_force():
@@ -529,7 +541,7 @@ def test_nearest_accessible_matches_brute_force():
         cost = random_costmap(rng, (25, 31))
         cell = tuple(int(v) for v in rng.integers(-5, 35, 2))
         max_cost, radius = int(rng.integers(0, 253)), float(rng.uniform(0, 1.5))
-        got = _native.nearest_accessible(cost, cell, max_cost=max_cost, max_radius_m=radius)
+        got = nearest_accessible(cost, cell, max_cost=max_cost, max_radius_m=radius)
         assert got == reference_nearest(cost, cell, max_cost, radius, RES)
 
 
@@ -555,12 +567,12 @@ def test_shortcut_around_a_corner():
     cost = np.zeros((10, 10), np.uint8)
     cost[2:, :8] = LETHAL
     path = np.array([[0, c] for c in range(10)] + [[r, 9] for r in range(1, 10)], np.int32)
-    short = _native.shortcut(path, cost)
+    short = shortcut(path, cost)
     # (0, 0) -> (1, 9) stays in rows 0-1; any line to (r >= 2, 9) enters row 2 before col 8.
     assert short.tolist() == [[0, 0], [1, 9], [9, 9]]
     assert_valid_shortcut(short, path, cost)
     # Without the block the whole path is one segment.
-    assert _native.shortcut(path, np.zeros_like(cost)).tolist() == [[0, 0], [9, 9]]
+    assert shortcut(path, np.zeros_like(cost)).tolist() == [[0, 0], [9, 9]]
 
 
 def test_shortcut_never_runs_closer_to_obstacles_than_the_path():
@@ -569,15 +581,15 @@ def test_shortcut_never_runs_closer_to_obstacles_than_the_path():
     cost = np.zeros((7, 7), np.uint8)
     cost[2:, :6] = 100
     path = np.array([[0, c] for c in range(7)] + [[r, 6] for r in range(1, 7)], np.int32)
-    short = _native.shortcut(path, cost)
+    short = shortcut(path, cost)
     assert short.tolist() == [[0, 0], [1, 6], [6, 6]]
     assert_valid_shortcut(short, path, cost)
     # If the path itself passes a cost-100 cell, lines up to cost 100 become acceptable.
     cost[0, 6] = 100
-    assert _native.shortcut(path, cost).tolist() == [[0, 0], [6, 6]]
+    assert shortcut(path, cost).tolist() == [[0, 0], [6, 6]]
     # ... but never a lethal one, even below the path's own highest cost.
     cost[3, 3] = LETHAL
-    short = _native.shortcut(path, cost)
+    short = shortcut(path, cost)
     assert len(short) > 2
     assert_valid_shortcut(short, path, cost)
 
@@ -589,7 +601,7 @@ def test_shortcut_from_a_start_beside_a_wall_leaves_the_wall_as_the_path_does():
     cost = np.zeros((12, 6), np.uint8)
     cost[:, 0], cost[:, 1] = 220, 150
     path = np.array([[0, 0], [1, 1]] + [[r, 2] for r in range(2, 12)], np.int32)
-    short = _native.shortcut(path, cost)
+    short = shortcut(path, cost)
     assert_valid_shortcut(short, path, cost)
     assert short.tolist() == [[0, 0], [4, 2], [11, 2]]      # (0, 0) -> (4, 2) crosses column 1 only
     # (with the start's 220 as the ceiling, (0, 0) -> (11, 2) would run up columns 0 and 1)
@@ -600,18 +612,18 @@ def test_shortcut_from_a_start_beside_a_wall_leaves_the_wall_as_the_path_does():
 def test_shortcut_of_astar_paths_on_random_maps(seed):
     rng = np.random.default_rng(200 + seed)
     occ = random_rect_occupancy(rng, (60, 60), fill=0.15)
-    cost = _native.inflate(occ, RES, 0.05, 0.25, 5.0)
+    cost = inflate(occ, RES, 0.05, 0.25, 5.0)
     cells = passable_cells(cost)
     start = tuple(int(v) for v in cells[rng.integers(len(cells))])
     # the goal: a cell the start reaches that is not its neighbour, so the path has >= 3 cells
-    field = _native.dijkstra(cost, start)
+    field = dijkstra(cost, start)
     goals = cells[np.isfinite(field[cells[:, 0], cells[:, 1]])
                   & (np.abs(cells - start).max(axis=1) >= 2)]
     assert len(goals), f"seed {seed}: the start reaches no cell two steps away; pick another seed"
     goal = tuple(int(v) for v in goals[rng.integers(len(goals))])
-    path, _ = _native.astar(cost, start, goal)
+    path, _ = astar(cost, start, goal)
     assert len(path) >= 3
-    short = _native.shortcut(path, cost)
+    short = shortcut(path, cost)
     assert short.dtype == np.int32
     assert len(short) < len(path)
     assert_valid_shortcut(short, path, cost)
@@ -621,11 +633,11 @@ def test_shortcut_short_paths_are_unchanged():
     cost = np.zeros((5, 5), np.uint8)
     for pts in ([], [[1, 1]], [[1, 1], [2, 2]]):
         path = np.array(pts, np.int32).reshape(-1, 2)
-        assert _native.shortcut(path, cost).tolist() == pts
+        assert shortcut(path, cost).tolist() == pts
     straight = np.array([[2, c] for c in range(5)], np.int32)
-    assert _native.shortcut(straight, cost).tolist() == [[2, 0], [2, 4]]
+    assert shortcut(straight, cost).tolist() == [[2, 0], [2, 4]]
     with pytest.raises(ValueError, match="outside the grid"):
-        _native.shortcut(np.array([[0, 0], [7, 7], [1, 1]], np.int32), cost)
+        shortcut(np.array([[0, 0], [7, 7], [1, 1]], np.int32), cost)
 
 
 # ---------------------------------------------------------------- facade
@@ -664,10 +676,10 @@ def test_make_costmap_and_plan_end_to_end():
     cost = make_costmap(occ, RES, settings)
     # both radii one cell diagonal further out: obstacle and robot each sit anywhere in a cell
     margin = RES * math.sqrt(2.0)
-    np.testing.assert_array_equal(cost, _native.inflate(occ, RES, 0.1 + margin, 0.3 + margin, 5.0))
+    np.testing.assert_array_equal(cost, inflate(occ, RES, 0.1 + margin, 0.3 + margin, 5.0))
     # (31, 31) is sqrt(5) cells = 0.112 m from the wall's end (29, 30): beyond the 0.1 m
     # radius from its centre, but within 0.1 m of its edge
-    assert cost[31, 31] == 253 and _native.inflate(occ, RES, 0.1, 0.3, 5.0)[31, 31] < 253
+    assert cost[31, 31] == 253 and inflate(occ, RES, 0.1, 0.3, 5.0)[31, 31] < 253
     start, goal = (5, 10), (5, 50)
     raw = plan(cost, start, goal, PlannerSettings(shortcut=False))
     short = plan(cost, start, goal, PlannerSettings())

@@ -36,6 +36,7 @@ from .. import _native
 from ..config import positive, require
 from ..exploration import tour
 from ..geometry import cells_to_points
+from ..planning.costmap import PlannerSettings, cost_model
 from ..planning.lattice import LatticeSettings, footprint_costmap, lattice_cost_to_come
 from ..robot import RobotSpec
 from ..sim.world import World
@@ -109,6 +110,7 @@ class Oracle:
                  lattice: LatticeSettings = LatticeSettings()):
         settings.validate("oracle")
         self.world, self.s, self.res = world, settings, world.resolution
+        self._cost = cost_model(PlannerSettings(), self.res)       # the planner's step cost
         F = reachable_free_space(world, robot.radius_m, sensor_range_m)
         self.F = F.ravel()
         self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
@@ -149,7 +151,7 @@ class Oracle:
         a, b = self.cell(*start_xy), self.cell(*goal_xy)
         if a is None or b is None:
             return np.zeros((0, 2))
-        cells, _ = _native.astar(self.costmap, a, b, resolution=self.res)
+        cells, _ = _native.astar(self.costmap, a, b, **self._cost)
         return self._xy(cells)
 
     def _xy(self, cells) -> np.ndarray:
@@ -228,8 +230,7 @@ class Oracle:
         cells = [start] + [(int(self.cells[i][0]), int(self.cells[i][1])) for i in chosen]
         for a in cells:                     # one Dijkstra per cell that lacks a pair, cached
             if any((a, b) not in self._pairs for b in cells):
-                field = _native.dijkstra(self.costmap, a, resolution=self.res,
-                                         targets=np.array(cells, np.int32))
+                field = _native.dijkstra(self.costmap, a, **self._cost, targets=np.array(cells, np.int32))
                 self._pairs.update({(a, b): float(field[b]) for b in cells})
         D = np.array([[self._pairs[(a, b)] for b in cells] for a in cells])
         D = np.minimum(D, D.T)
@@ -242,7 +243,7 @@ class Oracle:
         the F cells each sample sees, the union of those)."""
         key = (a, b)
         if key not in self._legs:
-            path, _ = _native.astar(self.costmap, a, b, resolution=self.res)
+            path, _ = _native.astar(self.costmap, a, b, **self._cost)
             if len(path) < 2:
                 self._legs[key] = (0.0, np.zeros(0), [], np.zeros(0, np.int64))
             else:

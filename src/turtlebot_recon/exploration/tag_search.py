@@ -199,7 +199,8 @@ class TagSearch:
                 seen = _native.camera_coverage(
                     sub, res, origin, (x, y, yaw), hfov_rad=math.pi, max_range_m=reach_m,
                     max_incidence_rad=self.s.coverage.max_incidence_rad,
-                    occupied_threshold=self.s.coverage.occupied_threshold, seen=seen)
+                    occupied_threshold=self.s.coverage.occupied_threshold, rays=self.s.coverage.rays,
+                    seen=seen)
             rows, cols = np.nonzero((seen != 0) & target)
             if rows.size * res < self.s.min_gain_m:
                 continue

@@ -178,7 +178,7 @@ def path_distance_matrix(costmap: np.ndarray, start_field: np.ndarray, goal_cell
     0.05 m, tens of ms each on a 2-core machine that also runs the simulation). Keep n to a
     few tens, and with ``cell_factor`` > 1 the runs use the ``coarsen``-ed costmap
     (factor^2 fewer cells; goal cells map to the coarse cells holding them).
-    ``dijkstra_kwargs`` (visits, cost_weight, ...) go to every run; for a consistent matrix
+    ``dijkstra_kwargs`` (settings, visits) go to every run; for a consistent matrix
     use the cost model that built ``start_field``.
     """
     n = len(goal_cells)

@@ -1,12 +1,13 @@
 """Global planning: inflated costmap, A* with visit penalty, line-of-sight shortcut, and the
 state-lattice planner for oriented footprints (``lattice``).
 
-The raw native functions are re-exported for callers that need the distance field, the
-Dijkstra cost-to-come field or the nearest accessible cell (e.g. frontier goals).
+The raw native functions are re-exported for callers that need the distance field or the
+nearest accessible cell (e.g. frontier goals); ``dijkstra`` (the cost-to-come field) applies
+the planner's step cost (PlannerSettings).
 """
-from .._native import astar, dijkstra, distance_transform, inflate, nearest_accessible, shortcut
+from .._native import astar, distance_transform, inflate, nearest_accessible, shortcut
 from .costmap import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, CostmapSettings,
-                      PlannerSettings, PlanningError, make_costmap, plan)
+                      PlannerSettings, PlanningError, dijkstra, make_costmap, plan)
 from .lattice import (EscapeArc, LatticePath, LatticeSettings, escape_arcs, footprint_clear,
                       footprint_costmap, lattice_cost_to_come, plan_lattice)
 

@@ -98,6 +98,23 @@ def make_costmap(occupancy: np.ndarray, resolution: float, settings: CostmapSett
                            unknown_is_obstacle=settings.unknown_is_obstacle)
 
 
+def cost_model(settings: PlannerSettings, resolution: float) -> dict:
+    """The step cost arguments of ``_native.astar`` / ``dijkstra``: ``settings``, cells from
+    INSCRIBED up impassable, ``resolution`` (m per cell) scaling the cost."""
+    return dict(visit_sensitivity=settings.visit_sensitivity, cost_weight=settings.cost_weight,
+                unknown_cost=settings.unknown_cost, lethal_cost=INSCRIBED, resolution=resolution)
+
+
+def dijkstra(costmap: np.ndarray, start: Cell, resolution: float,
+             settings: PlannerSettings = PlannerSettings(), visits: Optional[np.ndarray] = None,
+             targets: Optional[np.ndarray] = None) -> np.ndarray:
+    """The cost-to-come field from ``start`` on ``costmap`` (float32, m scaled by the step cost
+    of ``settings``; +inf where unreachable); ``targets`` (int32 (n, 2)): stop once all are
+    settled."""
+    return _native.dijkstra(costmap, start, visits=visits, targets=targets,
+                            **cost_model(settings, resolution))
+
+
 def plan(costmap: np.ndarray, start: Cell, goal: Cell, settings: PlannerSettings,
          visits: Optional[np.ndarray] = None, resolution: float = 0.05) -> np.ndarray:
     """Cheapest path start -> goal on ``costmap`` as int32 (n, 2) cells, start and goal included.
@@ -107,14 +124,11 @@ def plan(costmap: np.ndarray, start: Cell, goal: Cell, settings: PlannerSettings
     """
     start, goal = (int(start[0]), int(start[1])), (int(goal[0]), int(goal[1]))
     try:
-        path, _ = _native.astar(costmap, start, goal, visits=visits,
-                                visit_sensitivity=settings.visit_sensitivity,
-                                cost_weight=settings.cost_weight,
-                                unknown_cost=settings.unknown_cost, resolution=resolution)
+        path, _ = _native.astar(costmap, start, goal, visits=visits, **cost_model(settings, resolution))
     except ValueError as exc:
         raise PlanningError(str(exc)) from exc
     if len(path) == 0:
         raise PlanningError(f"plan: goal {goal} is unreachable from start {start}")
     if settings.shortcut:
-        path = _native.shortcut(path, costmap)
+        path = _native.shortcut(path, costmap, lethal_cost=INSCRIBED)
     return path
