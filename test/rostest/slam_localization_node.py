@@ -53,8 +53,8 @@ class SlamLocalization(unittest.TestCase):
         env = dict(os.environ, ROS_NAMESPACE="/bad_map")
         script = os.path.join(rospkg.RosPack().get_path("turtlebot_recon"), "scripts", "slam")
         proc = subprocess.run([sys.executable, script, "__name:=slam_bad", "_mode:=localization",
-                               "_map_file:=/nonexistent/map.yaml"], env=env, timeout=60,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                               "_robot:=turtlebot3_burger", "_map_file:=/nonexistent/map.yaml"],
+                              env=env, timeout=60, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.assertNotEqual(proc.returncode, 0, proc.stdout)
         self.assertIn("cannot load map_file '/nonexistent/map.yaml'", proc.stdout)
         self.assertNotIn("Traceback", proc.stdout)

@@ -7,9 +7,9 @@ that cannot be used is skipped and counted by reason, never raised out of the it
 the iteration ``summary()`` gives one line for the caller to log. ``LogError`` is raised only
 for a file that cannot be read at all.
 
-This module is format-free but for CARMEN's text: rosbags are read and written by
-``turtlebot_recon.ros.bags`` (the ROS layer: rosbag and the message classes), which merges a
-bag's topics into one stream with ``in_stamp_order``.
+Here: the records, CARMEN's text, and ``in_stamp_order``, the format-free merge of a bag's
+topics into one stream. Bags are read and written by ``turtlebot_recon.ros.bags`` (the ROS
+layer: rosbag and the message classes stay out of the core).
 
 CARMEN (http://carmen.sourceforge.net/logger_playback.html and the logger's writer,
 ``carmen_logwrite_write_robot_laser`` in CARMEN 0.7's ``logger/writelog.c``): one message per
@@ -36,7 +36,6 @@ the records are sorted by time stamp and the reordered ones counted. Ranges: a r
 beyond the maximum range is CARMEN's "no return" and becomes +inf (REP 117), a reading <= 0
 becomes NaN; comments (``#``) and other messages (PARAM, SYNC, NMEA..., ROBOTLASER2) are
 counted and skipped.
-
 """
 from __future__ import annotations
 
@@ -51,7 +50,6 @@ from pathlib import Path
 from typing import Any, Collection, Iterable, Iterator, List, Optional, Tuple, Union
 
 import numpy as np
-
 
 FLASER_RANGE_MAX_M = 81.9     # SICK LMS (the FLASER datasets' laser): 8191 cm is "no return"
 MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*$")
