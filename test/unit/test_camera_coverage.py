@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from turtlebot_recon import _native
+from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH
 from turtlebot_recon.perception.camera_coverage import (WALL_SEEN, WALL_UNSEEN, CameraCoverage,
                                                         CoverageSettings)
 from turtlebot_recon.robot import CameraSpec
@@ -28,9 +29,9 @@ from turtlebot_recon.robot import CameraSpec
 from conftest import grid_traversal
 
 RES = 0.05
-# the binding takes every argument: the camera coverage's own (CoverageSettings) unless a test gives its own
-camera_coverage = partial(_native.camera_coverage, occupied_threshold=CoverageSettings().occupied_threshold,
-                          rays=CoverageSettings().rays)
+# the binding takes every argument: map_server's occupied threshold and CoverageSettings' rays unless a
+# test gives its own
+camera_coverage = partial(_native.camera_coverage, occupied_threshold=OCCUPIED_THRESH, rays=CoverageSettings().rays)
 UNKNOWN, FREE, WALL = -1, 0, 100
 DEG = math.pi / 180
 
@@ -303,7 +304,7 @@ def test_max_range_is_where_a_tag_shrinks_to_min_tag_px():
 def test_settings_and_constructor_validate():
     for key, value in [("max_incidence_rad", 2.0), ("max_incidence_rad", -0.1),
                        ("min_tag_px", 0.0), ("tag_size_m", -0.16), ("tag_size_m", math.nan),
-                       ("occupied_threshold", 0), ("occupied_threshold", 65.0), ("rays", -1)]:
+                       ("rays", -1)]:
         with pytest.raises(ValueError, match=key):
             CoverageSettings(**{key: value})
     with pytest.raises(ValueError, match="fx_px"):

@@ -652,7 +652,7 @@ def test_settings_for_robot_and_validation():
     assert s.turn_cost_m_per_rad == pytest.approx(0.325)
     assert LatticeSettings.for_robot(BURGER, margin_m=0.03).margin_m == 0.03
     for bad in (dict(headings=12), dict(margin_m=0.0), dict(turn_margin_m=-0.01),
-                dict(cost_weight=-1.0), dict(turn_speed_radps=-1.0), dict(occupied_threshold=0)):
+                dict(cost_weight=-1.0), dict(turn_speed_radps=-1.0)):
         with pytest.raises(ConfigError, match=next(iter(bad))):
             LatticeSettings(**bad).validate("lattice")
     with pytest.raises(ConfigError, match="margin_m"):

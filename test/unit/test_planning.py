@@ -659,8 +659,6 @@ def test_costmap_settings_for_robots():
 def test_settings_validation():
     with pytest.raises(ConfigError, match="inflation_radius_m"):
         from_dict(CostmapSettings, {"inscribed_radius_m": 0.3, "inflation_radius_m": 0.2}, "cm")
-    with pytest.raises(ConfigError, match="occupied_threshold"):
-        from_dict(CostmapSettings, {"occupied_threshold": 101}, "cm")
     with pytest.raises(ConfigError, match="unknown_cost"):
         from_dict(PlannerSettings, {"unknown_cost": 300}, "pl")
     with pytest.raises(ConfigError, match="visit_sensitivity"):

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _native
+from ..mapping.map_io import OCCUPIED_THRESH
 from ..robot import RobotSpec, footprint_args
 
 SWEEP_STEP_RAD = math.radians(1.0)   # yaw samples of an in-place turn: a corner 0.257 m out
@@ -37,7 +38,7 @@ class BodyCheck:
     robot: RobotSpec
     margin_m: float = 0.005           # body to obstacle edge below which a pose collides
                                       # (FollowerSettings.collision_margin_m)
-    occupied_threshold: int = 65      # occupancy (0..100) >= this is an obstacle (map_server)
+    occupied_threshold: int = OCCUPIED_THRESH   # occupancy (0..100) >= this is an obstacle
 
     def _args(self, round_body: bool) -> dict:
         if round_body:

@@ -246,7 +246,7 @@ class Explorer:
         # the navigator's lattice (config/lattice.yaml): goals count as reachable where it
         # reaches them, behind gaps narrower than the turning disc too
         self.robot, self.lattice = robot, (lattice or LatticeSettings()).with_robot(robot)
-        self.body = BodyCheck(robot, occupied_threshold=self.lattice.occupied_threshold)
+        self.body = BodyCheck(robot)
         half_width = robot.radius_m if robot.is_round else 0.5 * robot.footprint_width_m
         self.scan_half_width_m = half_width + settings.scan_margin_m   # for ScanClearance
         self.rng = np.random.default_rng(settings.seed)

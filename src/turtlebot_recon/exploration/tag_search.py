@@ -30,6 +30,7 @@ from scipy import ndimage
 from .. import _native
 from ..config import positive, require
 from ..geometry import inside, points_to_cells
+from ..mapping.map_io import OCCUPIED_THRESH
 from ..perception.camera_coverage import CameraCoverage, CoverageSettings
 from ..perception.tracker import Glimpse
 from ..robot import CameraSpec
@@ -104,7 +105,7 @@ class TagSearch:
     def free_region(self, ctx: Context) -> np.ndarray:
         """The known free cells connected to where the robot can stand: the space whose walls
         count (a wall cell faces a cell of it)."""
-        free = (ctx.occupancy >= 0) & (ctx.occupancy < self.s.coverage.occupied_threshold)
+        free = (ctx.occupancy >= 0) & (ctx.occupancy < OCCUPIED_THRESH)
         labels, _ = ndimage.label(free)
         keep = np.unique(labels[ctx.reachable & free])
         return np.isin(labels, keep[keep > 0])
@@ -199,7 +200,7 @@ class TagSearch:
                 seen = _native.camera_coverage(
                     sub, res, origin, (x, y, yaw), hfov_rad=math.pi, max_range_m=reach_m,
                     max_incidence_rad=self.s.coverage.max_incidence_rad,
-                    occupied_threshold=self.s.coverage.occupied_threshold, rays=self.s.coverage.rays,
+                    occupied_threshold=OCCUPIED_THRESH, rays=self.s.coverage.rays,
                     seen=seen)
             rows, cols = np.nonzero((seen != 0) & target)
             if rows.size * res < self.s.min_gain_m:

@@ -23,6 +23,7 @@ from scipy import ndimage
 
 from .. import _native
 from ..config import positive, require
+from ..mapping.map_io import OCCUPIED_THRESH
 from ..robot import CameraSpec
 
 log = logging.getLogger(__name__)
@@ -45,7 +46,6 @@ class CoverageSettings:
                                                    # (between the line of sight and the normal)
     min_tag_px: float = 20.0        # px, smallest tag side in the image the detector reads reliably
     tag_size_m: float = 0.10        # m, side of the smallest tags' black square (the ArUco's)
-    occupied_threshold: int = 65    # occupancy (0..100) >= this is a wall (map_server's 0.65)
     rays: int = 0                   # rays over the field of view; 0: enough to leave no gaps
                                     # on walls within range and incidence (camera_coverage.hpp)
 
@@ -57,9 +57,6 @@ class CoverageSettings:
         require(isinstance(self.max_incidence_rad, Real)
                 and 0.0 <= self.max_incidence_rad <= math.pi / 2, src, "max_incidence_rad",
                 f"must be in [0, pi/2] rad, got {self.max_incidence_rad!r}")
-        require(isinstance(self.occupied_threshold, int) and 1 <= self.occupied_threshold <= 100,
-                src, "occupied_threshold", f"must be an integer in 1..100, got "
-                f"{self.occupied_threshold!r}")
         require(isinstance(self.rays, int) and self.rays >= 0, src, "rays",
                 f"must be an integer >= 0 (0: automatic), got {self.rays!r}")
 
@@ -123,14 +120,14 @@ class CameraCoverage:
         self._seen = _native.camera_coverage(
             occupancy, resolution, origin, camera_pose_xyyaw, hfov_rad=self.hfov_rad,
             max_range_m=self.max_range_m, max_incidence_rad=self.settings.max_incidence_rad,
-            occupied_threshold=self.settings.occupied_threshold, rays=self.settings.rays,
+            occupied_threshold=OCCUPIED_THRESH, rays=self.settings.rays,
             seen=seen)
-        self._walls = occupancy >= self.settings.occupied_threshold
+        self._walls = occupancy >= OCCUPIED_THRESH
         self._resolution, self._origin = float(resolution), tuple(map(float, origin))
         return self._seen
 
     def wall_cells(self, occupancy: np.ndarray, reachable_free_mask: np.ndarray) -> np.ndarray:
-        """bool (rows, cols): the wall cells (occupancy >= occupied_threshold) that share a
+        """bool (rows, cols): the wall cells (occupancy >= OCCUPIED_THRESH) that share a
         side with a reachable free cell: the wall faces the robot could look at.
 
         A side, not a corner: a wall cell whose only free neighbour is diagonal (the inner
@@ -139,7 +136,7 @@ class CameraCoverage:
         neighbours before it): counting it would keep ``seen_share`` below 1 in every room.
         """
         occupancy, free = self._check_pair(occupancy, reachable_free_mask)
-        walls = occupancy >= self.settings.occupied_threshold
+        walls = occupancy >= OCCUPIED_THRESH
         return walls & ndimage.binary_dilation(free, structure=_FOUR_NEIGHBOURS)
 
     def seen_share(self, occupancy: np.ndarray, reachable_free_mask: np.ndarray) -> float:

@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import _native
 from ..config import positive, require
+from ..mapping.map_io import OCCUPIED_THRESH
 from ..robot import RobotSpec
 
 FREE_SPACE = 0
@@ -34,7 +35,6 @@ class CostmapSettings:
                                           # edge: collision (see make_costmap)
     inflation_radius_m: float = 0.455     # graded cost out to this distance from obstacle edges
     cost_scaling_factor: float = 5.0      # 1/m, decay of the graded cost past the inscribed radius
-    occupied_threshold: int = 65          # occupancy (0..100) >= this is an obstacle (map_server)
     unknown_is_obstacle: bool = False     # unknown cells: lethal instead of NO_INFORMATION (255)
 
     def validate(self, src: str) -> None:
@@ -42,8 +42,6 @@ class CostmapSettings:
         require(self.inflation_radius_m >= self.inscribed_radius_m, src, "inflation_radius_m",
                 f"must be >= inscribed_radius_m ({self.inscribed_radius_m})")
         require(self.cost_scaling_factor >= 0, src, "cost_scaling_factor", "must be >= 0")
-        require(isinstance(self.occupied_threshold, int) and 1 <= self.occupied_threshold <= 100,
-                src, "occupied_threshold", "must be an integer in 1..100")
 
     @classmethod
     def for_robot(cls, robot: RobotSpec) -> "CostmapSettings":
@@ -94,7 +92,7 @@ def make_costmap(occupancy: np.ndarray, resolution: float, settings: CostmapSett
     margin = resolution * math.sqrt(2.0)
     return _native.inflate(occupancy, resolution, settings.inscribed_radius_m + margin,
                            settings.inflation_radius_m + margin, settings.cost_scaling_factor,
-                           occupied_threshold=settings.occupied_threshold,
+                           occupied_threshold=OCCUPIED_THRESH,
                            unknown_is_obstacle=settings.unknown_is_obstacle)
 
 

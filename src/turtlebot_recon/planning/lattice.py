@@ -24,6 +24,7 @@ import numpy as np
 from .. import _native, geometry
 from ..config import positive, require
 from ..control.footprint import BodyCheck
+from ..mapping.map_io import OCCUPIED_THRESH
 from ..robot import RobotSpec, footprint_args
 from .costmap import PlanningError
 
@@ -43,7 +44,6 @@ class LatticeSettings:
     cruise_speed_mps: float = 0.0      # turning costs the distance not driven meanwhile:
     turn_speed_radps: float = 0.0      # |dtheta| / turn_speed x cruise_speed metres; 0: the
                                        # robot's (with_robot)
-    occupied_threshold: int = 65       # occupancy (0..100) >= this is an obstacle (map_server)
     unknown_is_obstacle: bool = False  # unknown cells collide with the body (never entered anyway)
     reverse_speed_mps: float = 0.1     # backward moves, driven this fast: they cost the forward
                                        # move's distance x cruise / this; 0: forward only
@@ -59,8 +59,6 @@ class LatticeSettings:
         require(self.reverse_speed_mps >= 0, src, "reverse_speed_mps", "must be >= 0 (0: forward only)")
         require(self.inflation_m >= 0, src, "inflation_m", "must be >= 0")
         require(self.cost_scaling_factor >= 0, src, "cost_scaling_factor", "must be >= 0")
-        require(isinstance(self.occupied_threshold, int) and 1 <= self.occupied_threshold <= 100,
-                src, "occupied_threshold", "must be an integer in 1..100")
 
     @property
     def turn_cost_m_per_rad(self) -> float:
@@ -108,7 +106,7 @@ def search_args(robot: RobotSpec, settings: LatticeSettings) -> dict:
                 turn_margin_m=settings.turn_margin_m, cost_weight=settings.cost_weight,
                 inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
                 turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
-                occupied_threshold=settings.occupied_threshold,
+                occupied_threshold=OCCUPIED_THRESH,
                 unknown_is_obstacle=settings.unknown_is_obstacle,
                 reverse_cost_factor=settings.reverse_cost_factor)
 
@@ -169,7 +167,7 @@ def escape_arcs(occupancy: np.ndarray, resolution: float, origin: Sequence[float
                 continue
             r, c = cell
             known_free = geometry.inside(r, c, occupancy.shape) and \
-                0 <= occupancy[r, c] < settings.occupied_threshold
+                0 <= occupancy[r, c] < OCCUPIED_THRESH
             if not known_free:
                 continue
             if footprint_clear(occupancy, resolution, origin, robot, np.array([arc.end]), settings)[0]:
@@ -254,7 +252,7 @@ def footprint_costmap(occupancy: np.ndarray, resolution: float, robot: RobotSpec
     return _native.footprint_costmap(
         occupancy, resolution, **footprint_args(robot), margin_m=settings.margin_m,
         inflation_m=settings.inflation_m, cost_scaling_factor=settings.cost_scaling_factor,
-        occupied_threshold=settings.occupied_threshold,
+        occupied_threshold=OCCUPIED_THRESH,
         unknown_is_obstacle=settings.unknown_is_obstacle)
 
 
@@ -266,5 +264,5 @@ def footprint_clear(occupancy: np.ndarray, resolution: float, origin: Sequence[f
     return _native.footprint_clear(
         occupancy, resolution, (float(origin[0]), float(origin[1])),
         np.asarray(poses, dtype=float).reshape(-1, 3), **footprint_args(robot),
-        margin_m=settings.margin_m, occupied_threshold=settings.occupied_threshold,
+        margin_m=settings.margin_m, occupied_threshold=OCCUPIED_THRESH,
         unknown_is_obstacle=settings.unknown_is_obstacle)

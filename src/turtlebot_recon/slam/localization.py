@@ -35,6 +35,7 @@ import numpy as np
 
 from ..config import positive, require
 from ..geometry import between, compose, inverse, wrap_angle
+from ..mapping.map_io import OCCUPIED_THRESH
 from .scan_matching import MatcherSettings, ScanMatcher
 from .slam import MAX_PLAUSIBLE_SPEED_MPS, MAX_PLAUSIBLE_TURN_RADPS, SlamSettings, odometry_covariance
 
@@ -48,7 +49,6 @@ class LocalizationSettings:
     initial_std_rad: float = 0.1          # ... and of its heading (rad)
     reference_radius_m: float = 4.5       # map surface points within this of the prediction are
                                           # matched (the lidar's range + the search window)
-    occupied_threshold: int = 65          # map cells >= this are walls (map_server's 0.65)
     match_min_score: float = 0.5          # matches scoring lower are not used
     match_gate_chi2: float = 16.3         # matches farther than this (Mahalanobis^2 over both
                                           # covariances, 99.9 % for 3 dof) from the prediction
@@ -65,16 +65,15 @@ class LocalizationSettings:
                  "relocalise_search_yaw_rad")
         for key in ("match_min_score", "relocalise_min_score"):
             require(0.0 <= getattr(self, key) <= 1.0, src, key, "must be in [0, 1]")
-        require(0 < self.occupied_threshold <= 100, src, "occupied_threshold", "must be in 1..100")
 
 
-def surface_points(occupancy: np.ndarray, resolution: float, origin, occupied_threshold: int = 65) -> tuple:
-    """The middle of every face between an obstacle cell (>= occupied_threshold) and a free
+def surface_points(occupancy: np.ndarray, resolution: float, origin) -> tuple:
+    """The middle of every face between an obstacle cell (>= OCCUPIED_THRESH) and a free
     one (0 .. threshold): ((n, 2) map-frame points (m), (n, 2) unit normals pointing from the
     obstacle into the free cell). Row 0 at the smallest y."""
     occ = np.asarray(occupancy)
     rows, cols = occ.shape
-    wall = occ >= occupied_threshold
+    wall = occ >= OCCUPIED_THRESH
     free = np.pad((occ >= 0) & ~wall, 1, constant_values=False)
     points, normals = [], []
     for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0)):
@@ -101,7 +100,7 @@ class Localizer:
         self.s = settings
         self.odometry = odometry           # the wheel-slip figures of the odometry model
         self.separation = wheel_separation_m
-        self.surface, self.normals = surface_points(occupancy, resolution, origin, settings.occupied_threshold)
+        self.surface, self.normals = surface_points(occupancy, resolution, origin)
         if len(self.surface) < settings.matcher.min_points:
             raise ValueError(f"localization: the map has {len(self.surface)} wall faces next to free cells; "
                              f"at least {settings.matcher.min_points} are needed to match scans")

@@ -10,6 +10,7 @@ from scipy.spatial import cKDTree
 
 from ...config import positive, require
 from ...geometry import cells_to_points
+from ...mapping.map_io import OCCUPIED_THRESH
 from ..context import Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
@@ -34,7 +35,6 @@ class DensitySettings:
     frontier_radius_cells: int = 8       # FRONTIER_RADIUS: neighbourhood half-width (cells)
     clear_neighbours_min: int = 5        # CLEAR_NEIGHBOR_FRONTIER_THRESH: need more clear cells
     free_threshold: int = 25             # occupancy <= this is clear
-    occupied_threshold: int = 65         # occupancy >= this is blocked; between: unexplored
     weight_decrement: float = 0.2        # FRONTIER_WEIGHT_DECREMENT per failure nearby
     weight_min: float = 0.01             # the weight's floor (no division by 0)
     weight_radius_m: float = 0.4         # failures this close lower a cell's weight (8 cells)
@@ -44,8 +44,8 @@ class DensitySettings:
     def validate(self, src: str) -> None:
         positive(src, self, "frontier_radius_cells", "weight_decrement", "weight_min",
                  "weight_radius_m", "snap_radius_m", "max_candidates")
-        require(0 <= self.free_threshold < self.occupied_threshold <= 100, src, "free_threshold",
-                "need 0 <= free_threshold < occupied_threshold <= 100")
+        require(0 <= self.free_threshold < OCCUPIED_THRESH, src, "free_threshold",
+                f"need 0 <= free_threshold < {OCCUPIED_THRESH} (occupied)")
         require(self.clear_neighbours_min >= 0, src, "clear_neighbours_min", "must be >= 0")
         require(self.weight_min <= 1.0, src, "weight_min", "must be <= 1")
 
@@ -72,7 +72,7 @@ class Density:
         s = self.settings
         occ = np.asarray(occupancy)
         clear = (occ >= 0) & (occ <= s.free_threshold)
-        blocked = occ >= s.occupied_threshold
+        blocked = occ >= OCCUPIED_THRESH                 # between free and this: unexplored
         unexplored = ~clear & ~blocked
         k = s.frontier_radius_cells
         return (unexplored & (_box_count(clear, k) > s.clear_neighbours_min)
