@@ -94,7 +94,8 @@ class OracleDrive:
         self.spin_end_s = math.inf
         self.tracker = CoverageTracker(self.world, oracle.F.reshape(self.world.free.shape))
         self._log = log or logging.getLogger(__name__).log
-        self.phase = "plan"                # plan | start | spin | route | point | done
+        self.phase = "plan"                # plan | start | spin | point | route (re-planned: its
+                                           # first point at the next tick) | done
         self.route: Optional[Route] = None
         self.routes = 0                    # routes planned so far
         self.last_coverage: Optional[float] = None   # at the last re-plan
