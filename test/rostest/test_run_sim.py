@@ -27,6 +27,9 @@ def test_wander_writes_report_and_ends_quietly(tmp_path):
     assert proc.returncode == 0, tail
     assert lines[-1] == f"[wander] done: the report is in {tmp_path} (report.json and the files next to it)", tail
     assert RED not in proc.stdout, "a good run printed a red line:\n" + tail
+    # roslaunch's own chatter stays off the terminal: no parameter summary, no process lines
+    assert "PARAMETERS" not in proc.stdout and "process[" not in proc.stdout, proc.stdout[:3000]
+    assert any("scripted_drive" in ln for ln in lines[:-1]), tail      # the nodes' own lines stay
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["world"] == "house" and report["robot"] == "turtlebot3_burger", tail
     assert report["sim_time_s"] >= 30.0
