@@ -19,6 +19,9 @@ The comment convention, checked here:
   help text does not print such a variable's value.
 - bindings: no ``py::arg(...) = value``; only ``= py::none()`` (an input that may be absent)
   stays. The values come from the Python settings, which come from the YAML.
+- C++: a default in a parameter struct of include/ that a YAML key also declares equals it
+  (the bindings pass every value; the struct's defaults serve C++ callers), and every
+  ``occupied_threshold`` is map_server's (mapping.map_io.OCCUPIED_THRESH).
 - Python: no ``occupied_threshold`` defaults to a number (mapping.map_io.OCCUPIED_THRESH is the
   one value).
 """
@@ -278,3 +281,39 @@ def test_occupied_threshold_is_one_named_value():
     bad = [f"{p.relative_to(TOP)}:{i + 1}" for p in sorted((TOP / "src" / "turtlebot_recon").rglob("*.py"))
            for i, line in enumerate(p.read_text().splitlines()) if pattern.search(line)]
     assert bad == [], "use mapping.map_io.OCCUPIED_THRESH: " + ", ".join(bad)
+
+
+OCCUPIED_THRESH = int(re.search(r"^OCCUPIED_THRESH, FREE_THRESH = (\d+), \d+",
+                                (TOP / "src" / "turtlebot_recon" / "mapping" / "map_io.py").read_text(),
+                                re.M).group(1))
+# header, struct -> (YAML file, key path of its block, {C++ field: YAML key} where they differ)
+HEADER_STRUCTS = {
+    ("occupancy_grid.hpp", "GridSettings"): ("mapper.yaml", ("grid",), {}),
+    ("visibility.hpp", "VisibilityParams"): ("explorer.yaml", ("frontiers",), {"beams": "gain_beams"}),
+    ("lattice_search.hpp", "LatticeParams"): ("lattice.yaml", (), {}),
+    ("scan_matcher.hpp", "MatcherParams"): ("slam.yaml", ("slam", "matcher"), {}),
+    ("camera_coverage.hpp", "CoverageParams"): ("explorer.yaml", ("tag_search", "coverage"), {}),
+    ("costmap.hpp", "InflationParams"): (None, (), {}),
+}
+
+
+def struct_defaults(header: str, struct: str) -> dict:
+    text = (TOP / "include" / "turtlebot_recon" / header).read_text()
+    body = re.search(r"struct %s \{(.*?)\n\};" % struct, text, re.S).group(1)
+    return {m.group(1): float(m.group(2)) if re.search(r"[.e]", m.group(2)) else int(m.group(2))
+            for m in re.finditer(r"^\s*(?:double|int|bool)\s+(\w+)\s*=\s*([-+0-9.e]+);", body, re.M)}
+
+
+@pytest.mark.parametrize("header, struct", sorted(HEADER_STRUCTS))
+def test_cpp_struct_defaults_match_the_yaml(header, struct):
+    file, path, rename = HEADER_STRUCTS[header, struct]
+    block = yaml.safe_load((CONFIG / file).read_text()) if file else {}
+    for key in path:
+        block = block[key]
+    defaults = struct_defaults(header, struct)
+    assert defaults, f"{header}: no defaults parsed in {struct}"
+    for field, value in defaults.items():
+        if field == "occupied_threshold":
+            assert value == OCCUPIED_THRESH, f"{header} {struct}.{field}"
+        elif rename.get(field, field) in block:
+            assert value == pytest.approx(block[rename.get(field, field)]), f"{header} {struct}.{field} vs {file}"
