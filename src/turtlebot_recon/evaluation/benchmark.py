@@ -26,8 +26,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-STRATEGIES = ("nearest", "density", "gain_distance_heading", "sampled", "explore_lite", "recon")
-DEFAULT_STRATEGY = "recon"
+from ..exploration.strategies import DEFAULT_STRATEGY
+from ..exploration.strategies import STRATEGIES as _REGISTRY
+
+STRATEGIES = tuple(_REGISTRY)   # the explorer's, in its order
 REFERENCE = "oracle"    # the omniscient route (evaluation.oracle): never a baseline
 MILESTONES_PCT = (90, 95, 99)
 
