@@ -7,6 +7,7 @@ import rospy
 import tf2_ros
 
 from .convert import z_axis_yaw
+from .log import StartGrace
 
 TF_ERRORS = (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException)
 
@@ -15,11 +16,13 @@ class FramePoses:
     """Frames (stamp, frame id) queued as they come (``add``, from a subscriber); ``poses``
     places them in a target frame at their stamps: (x, y, yaw of the frame's z axis: a camera's
     line of sight). A frame TF cannot place yet waits up to ``wait_s`` (sim) and is then skipped
-    with a warning (throttled) that starts with ``label``."""
+    with a warning (throttled; debug while the node starts: TF's buffer is filling) that starts
+    with ``label``."""
 
     def __init__(self, tf: tf2_ros.Buffer, target_frame: str, wait_s: float, label: str, maxlen: int = 100):
         self.tf, self.target, self.wait_s, self.label = tf, target_frame, wait_s, label
         self.frames = deque(maxlen=maxlen)
+        self.grace = StartGrace()
 
     def add(self, stamp: rospy.Time, frame: str) -> None:
         self.frames.append((stamp, frame))
@@ -34,8 +37,8 @@ class FramePoses:
                 if now_s - stamp.to_sec() < self.wait_s:
                     keep.append((stamp, frame))
                 else:
-                    rospy.logwarn_throttle(10.0, "%s: frame %s at %.2f s skipped: no pose in %s: %s", self.label,
-                                           frame, stamp.to_sec(), self.target, exc)
+                    self.grace.warn_throttle(10.0, "%s: frame %s at %.2f s skipped: no pose in %s: %s",
+                                             self.label, frame, stamp.to_sec(), self.target, exc)
                 continue
             p = t.transform.translation
             poses.append((p.x, p.y, z_axis_yaw(t.transform.rotation)))
