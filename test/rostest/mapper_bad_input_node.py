@@ -78,7 +78,8 @@ class MapperBadInput(unittest.TestCase):
     def test_a_missing_initial_map_is_one_clear_error(self):
         env = dict(os.environ, ROS_NAMESPACE="/bad_initial_map")
         script = os.path.join(rospkg.RosPack().get_path("turtlebot_recon"), "scripts", "mapper")
-        proc = subprocess.run([sys.executable, script, "__name:=mapper_bad", "_initial_map:=/nonexistent/map.yaml"],
+        proc = subprocess.run([sys.executable, script, "__name:=mapper_bad", "_robot:=turtlebot3_burger",
+                               "_initial_map:=/nonexistent/map.yaml"],
                               env=env, timeout=60, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         self.assertNotEqual(proc.returncode, 0, proc.stdout)
         self.assertIn("cannot load initial_map '/nonexistent/map.yaml'", proc.stdout)
