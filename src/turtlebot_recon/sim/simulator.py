@@ -10,29 +10,29 @@ a collision (and a bumper press on robots that have bumpers).
 """
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import logging
 import math
-import os
 import pkgutil
-import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
-import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from .. import _native
 from ..config import positive, require
 from ..geometry import inside, wrap_angle
 from ..robot import RobotSpec
+from .c_output import quiet_c_output
 from .drive import DiffDrive, WheelOdometry
 from .markers import full_scale, marker_image
 from .world import World, WorldError
+
+with quiet_c_output():   # pybullet prints its build time on import
+    import pybullet as pb
 
 TAG_PROUD_M = 0.002    # markers are drawn this far in front of their wall (no z-fighting)
 
@@ -96,21 +96,6 @@ class BumperEvent:
     stamp_s: float
 
 
-@contextlib.contextmanager
-def _quiet_c_stdout():
-    """Send what C code writes to stdout to /dev/null for the duration."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-        os.close(devnull)
-
-
 def yaw_quaternion(yaw: float) -> tuple:
     return (0.0, 0.0, math.sin(0.5 * yaw), math.cos(0.5 * yaw))
 
@@ -165,7 +150,7 @@ class Simulator:
     def _load_egl(self) -> None:
         """PyBullet's EGL renderer (Mesa llvmpipe here) is ~4x faster than TinyRenderer."""
         plugin = pkgutil.get_loader("eglRenderer")
-        with _quiet_c_stdout():   # the plugin prints its GL driver details on stdout
+        with quiet_c_output():   # the plugin prints its GL driver details on stdout
             pid = -1 if plugin is None else pb.loadPlugin(plugin.get_filename(), "_eglRendererPlugin",
                                                            physicsClientId=self.client)
         if pid < 0:
@@ -469,5 +454,6 @@ class Simulator:
 
     def close(self) -> None:
         if self.client is not None and pb.isConnected(self.client):
-            pb.disconnect(self.client)
+            with quiet_c_output():   # the EGL plugin says goodbye on stdout
+                pb.disconnect(self.client)
         self._tmp.cleanup()
