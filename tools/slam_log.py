@@ -20,6 +20,7 @@ try:
 except ImportError:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
+from turtlebot_recon import paths
 from turtlebot_recon.config import ConfigError, from_dict, load_yaml
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.ros.bags import read_log
@@ -34,7 +35,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="slam_log", description=__doc__.split("\n\n")[0])
     p.add_argument("--log", required=True, help="rosbag (.bag) or CARMEN log")
     p.add_argument("--output", required=True, help="directory for the results")
-    p.add_argument("--robot", default="turtlebot3_burger", help="robot YAML name or path (default turtlebot3_burger)")
+    robot = paths.launch_defaults("explore_sim.launch")["robot"]   # the simulator's one default robot
+    p.add_argument("--robot", default=robot, help=f"robot YAML name or path (default {robot})")
     p.add_argument("--config", default=str(CONFIG), help="slam parameters (config/slam.yaml)")
     p.add_argument("--map", help="localise in this saved map (map_server YAML) instead of mapping")
     p.add_argument("--initial-pose", nargs=3, type=float, default=(0.0, 0.0, 0.0), metavar=("X", "Y", "YAW"),

@@ -36,3 +36,11 @@ def test_turtlebot2_drives_the_kobuki_topics():
 
 def test_turtlebot3_gets_our_robot_model():
     assert "robot_state_publisher" in nodes(robot="turtlebot3_burger")
+
+
+def test_tools_read_the_one_default_robot():
+    # tools/launch's mission check and tools/slam_log.py take the robot explore_sim.launch defaults to
+    from turtlebot_recon.paths import launch_defaults
+    sim = launch_defaults("explore_sim.launch")
+    assert sim["robot"] == "turtlebot3_waffle_pi" and sim["world"] == "house"
+    assert "robot" not in launch_defaults("explore_robot.launch")   # a real robot must be named
