@@ -32,7 +32,7 @@ CONTROLLERS = {
     "mppi": (MppiSettings, MppiController),
     "tube_mppi": (TubeMppiSettings, TubeMppiController),
 }
-DEFAULT_CONTROLLER = "tube_mppi"   # make bench-nav's pick, and sooner to 99 % in make bench-explore: README
+DEFAULT_CONTROLLER = "tube_mppi"   # make bench-nav's pick, and sooner to 99 % in make bench-explore: docs/benchmarks.md
 
 
 def make_controller(name: str, settings, robot, tracking: Optional[TrackingSettings] = None) -> Controller:

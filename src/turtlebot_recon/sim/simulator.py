@@ -63,7 +63,7 @@ class SimSettings:
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
     odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
                                          # TurtleBot3's OpenCR firmware and kobuki_node's default
-                                         # use_imu_heading publish: see README) | wheels; slip 0:
+                                         # use_imu_heading publish: see docs/nodes.md) | wheels; slip 0:
                                          # exact odometry
     gyro_scale_error: float = 0.015      # the gyro's scale factor error (fraction of the true rate)
     gyro_bias_radps: float = 0.00005     # its bias left after the drivers' start-up calibration
