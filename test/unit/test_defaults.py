@@ -276,11 +276,15 @@ def test_bindings_take_no_defaults():
     assert bad == [], "pass these from the Python settings:\n" + "\n".join(bad)
 
 
-def test_occupied_threshold_is_one_named_value():
-    pattern = re.compile(r"occupied_threshold\s*(?::\s*int)?\s*=\s*\d")
-    bad = [f"{p.relative_to(TOP)}:{i + 1}" for p in sorted((TOP / "src" / "turtlebot_recon").rglob("*.py"))
+@pytest.mark.parametrize("name, constant", [("occupied_threshold", "OCCUPIED_THRESH"),
+                                            ("free_threshold", "FREE_THRESH")])
+def test_map_thresholds_are_one_named_value(name, constant):
+    # map_server's thresholds: one named value each, in code and in no YAML
+    pattern = re.compile(name + r"\s*(?::\s*int)?\s*[=:]\s*\d")
+    files = sorted((TOP / "src" / "turtlebot_recon").rglob("*.py")) + sorted((TOP / "config").glob("*.yaml"))
+    bad = [f"{p.relative_to(TOP)}:{i + 1}" for p in files
            for i, line in enumerate(p.read_text().splitlines()) if pattern.search(line)]
-    assert bad == [], "use mapping.map_io.OCCUPIED_THRESH: " + ", ".join(bad)
+    assert bad == [], f"use mapping.map_io.{constant}: " + ", ".join(bad)
 
 
 OCCUPIED_THRESH = int(re.search(r"^OCCUPIED_THRESH, FREE_THRESH = (\d+), \d+",

@@ -19,6 +19,7 @@ from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, detect,
                                          find_frontier_cells)
 from turtlebot_recon.exploration.goals import GoalBook
+from turtlebot_recon.mapping.map_io import FREE_THRESH
 from turtlebot_recon.geometry import cell_to_xy
 from turtlebot_recon.planning import CostmapSettings, PlannerSettings, dijkstra, make_costmap, nearest_accessible
 from turtlebot_recon.robot import load_robot
@@ -27,7 +28,7 @@ from conftest import ray_cells
 
 # the binding takes every argument: the frontier gain's own (FrontierSettings) unless a test gives its own
 visible_unknown = partial(_native.visible_unknown, beams=FrontierSettings().gain_beams,
-                          free_threshold=FrontierSettings().free_threshold)
+                          free_threshold=FREE_THRESH)
 
 RES = 0.05
 UNKNOWN, FREE, WALL = -1, 0, 100
@@ -516,7 +517,7 @@ def test_no_frontiers_and_bad_input(burger_costmap_settings):
 def test_settings_validation():
     assert from_dict(FrontierSettings, {}, "test") == FrontierSettings()
     for bad in ({"min_size_cells": 0}, {"max_cost": 253}, {"sensor_range_m": 0.0},
-                {"extend_into_unknown_m": -0.1}, {"gain_beams": 0}, {"free_threshold": 101},
+                {"extend_into_unknown_m": -0.1}, {"gain_beams": 0},
                 {"snap_radius_m": -1.0}):
         with pytest.raises(ConfigError, match=next(iter(bad))):
             from_dict(FrontierSettings, bad, "test")

@@ -52,6 +52,7 @@ from scipy import ndimage
 from .. import _native
 from ..config import positive, require
 from ..geometry import cell_to_xy, inside
+from ..mapping.map_io import FREE_THRESH
 from ..planning import (FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION, dijkstra,
                         nearest_accessible)
 from .viewpoints import Tried, Viewpoints
@@ -66,7 +67,6 @@ _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 
 @dataclass(frozen=True)
 class FrontierSettings:
-    free_threshold: int = 25            # occupancy 0..this is free (map_saver's 0.25)
     min_size_cells: int = 3             # smaller clusters are noise (seed 004)
     sensor_range_m: float = 3.5         # gain counts unknown cells within this range (LDS-01)
     gain_beams: int = 180               # rays cast per goal for the gain
@@ -78,8 +78,6 @@ class FrontierSettings:
                                         # below inscribed
 
     def validate(self, src: str) -> None:
-        require(isinstance(self.free_threshold, int) and 0 <= self.free_threshold <= 100, src,
-                "free_threshold", "must be an integer in 0..100")
         require(isinstance(self.min_size_cells, int) and self.min_size_cells >= 1, src,
                 "min_size_cells", "must be an integer >= 1")
         positive(src, self, "sensor_range_m", "snap_radius_m")
@@ -117,7 +115,7 @@ class Frontier:
                 f"reachable={self.reachable})")
 
 
-def find_frontier_cells(occupancy: np.ndarray, free_threshold: int = 25) -> np.ndarray:
+def find_frontier_cells(occupancy: np.ndarray, free_threshold: int = FREE_THRESH) -> np.ndarray:
     """Bool mask of the UNKNOWN cells (< 0) with at least one free (0..free_threshold) cell
     among their 8 neighbours (seed 004: convolve(free, 3x3 ones) > 0, AND unknown; its table
     says "> 1 free neighbour", but a single free neighbour already borders the unknown, and
@@ -186,7 +184,7 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
             raise ValueError(f"detect: cost_to_come has shape {cost_to_come.shape}, occupancy "
                              f"{occupancy.shape}")
 
-    frontier = find_frontier_cells(occupancy, settings.free_threshold)
+    frontier = find_frontier_cells(occupancy)
     clusters = cluster(frontier, settings.min_size_cells)
     if not clusters:
         return []
@@ -194,7 +192,7 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     robot = np.array(robot_cell, dtype=float)
     viewpoints = Viewpoints(occupancy, costmap, cost_to_come, frontier, resolution, origin, tried,
                             settings.sensor_range_m / resolution, settings.gain_beams,
-                            settings.free_threshold, settings.max_cost)
+                            FREE_THRESH, settings.max_cost)
     snaps: List[Tuple[Cell, bool]] = []
     for cells in clusters:
         representative = _representative_cell(cells)
@@ -216,7 +214,7 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     gains = _native.visible_unknown(occupancy, np.array([g for g, _ in goals], dtype=np.int32),
                                     settings.sensor_range_m / resolution,
                                     beams=settings.gain_beams,
-                                    free_threshold=settings.free_threshold)
+                                    free_threshold=FREE_THRESH)
 
     frontiers = []
     for i, (cells, (goal_cell, reachable), gain) in enumerate(zip(clusters, goals, gains)):

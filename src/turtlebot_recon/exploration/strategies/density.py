@@ -10,7 +10,7 @@ from scipy.spatial import cKDTree
 
 from ...config import positive, require
 from ...geometry import cells_to_points
-from ...mapping.map_io import OCCUPIED_THRESH
+from ...mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
 from ..context import Context
 from ..frontiers import Frontier
 from ..goals import GoalBook
@@ -34,7 +34,6 @@ class DensitySettings:
     distance_weight_per_m: float = 5.0   # HEUR_DISTANCE_WEIGHT: 5 per metre vs 5..50 neighbours
     frontier_radius_cells: int = 8       # FRONTIER_RADIUS: neighbourhood half-width (cells)
     clear_neighbours_min: int = 5        # CLEAR_NEIGHBOR_FRONTIER_THRESH: need more clear cells
-    free_threshold: int = 25             # occupancy <= this is clear
     weight_decrement: float = 0.2        # FRONTIER_WEIGHT_DECREMENT per failure nearby
     weight_min: float = 0.01             # the weight's floor (no division by 0)
     weight_radius_m: float = 0.4         # failures this close lower a cell's weight (8 cells)
@@ -44,8 +43,6 @@ class DensitySettings:
     def validate(self, src: str) -> None:
         positive(src, self, "frontier_radius_cells", "weight_decrement", "weight_min",
                  "weight_radius_m", "snap_radius_m", "max_candidates")
-        require(0 <= self.free_threshold < OCCUPIED_THRESH, src, "free_threshold",
-                f"need 0 <= free_threshold < {OCCUPIED_THRESH} (occupied)")
         require(self.clear_neighbours_min >= 0, src, "clear_neighbours_min", "must be >= 0")
         require(self.weight_min <= 1.0, src, "weight_min", "must be <= 1")
 
@@ -71,7 +68,7 @@ class Density:
         """Bool grid of seed 003's frontier cells."""
         s = self.settings
         occ = np.asarray(occupancy)
-        clear = (occ >= 0) & (occ <= s.free_threshold)
+        clear = (occ >= 0) & (occ <= FREE_THRESH)   # map_saver's free
         blocked = occ >= OCCUPIED_THRESH                 # between free and this: unexplored
         unexplored = ~clear & ~blocked
         k = s.frontier_radius_cells
