@@ -8,6 +8,7 @@ from turtlebot_recon.robot import load_robot
 from turtlebot_recon.sim.simulator import SimSettings, Simulator
 from turtlebot_recon.sim.world import load_world
 sim = Simulator(load_world("house"), load_robot("turtlebot3_waffle_pi"), SimSettings(camera_rate_hz=5.0, seed=2))
+sim.render_camera()
 sim.close()
 print("only this")
 """

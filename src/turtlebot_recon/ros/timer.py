@@ -19,7 +19,9 @@ def quiet_on_shutdown(callback: Callable) -> Callable:
         try:
             return callback(*args, **kwargs)
         except rospy.ROSException:
-            if rospy.is_shutdown():
+            # is_shutdown() turns true only after rospy's client hooks have closed the topics;
+            # a publish in between meets a closed topic while is_shutdown() is still false
+            if rospy.is_shutdown() or rospy.core.is_shutdown_requested():
                 return None
             raise
     return run

@@ -10,6 +10,7 @@ a collision (and a bumper press on robots that have bumpers).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
@@ -111,6 +112,7 @@ class Simulator:
         self.client = pb.connect(pb.DIRECT)
         pb.setGravity(0, 0, 0, physicsClientId=self.client)
         self._renderer = pb.ER_TINY_RENDERER
+        self._first_frame = True
         if self.camera_on and settings.camera_renderer == "egl":
             self._load_egl()   # before any body exists: the plugin only sees bodies made after it
         self.wall_boxes = self._build_walls()
@@ -150,9 +152,11 @@ class Simulator:
     def _load_egl(self) -> None:
         """PyBullet's EGL renderer (Mesa llvmpipe here) is ~4x faster than TinyRenderer."""
         plugin = pkgutil.get_loader("eglRenderer")
-        with quiet_c_output():   # the plugin prints its GL driver details on stdout
+        with quiet_c_output():   # the plugin prints its GL driver details, at loading and at the first frame
             pid = -1 if plugin is None else pb.loadPlugin(plugin.get_filename(), "_eglRendererPlugin",
                                                            physicsClientId=self.client)
+            if pid >= 0:
+                pb.getCameraImage(8, 8, renderer=pb.ER_BULLET_HARDWARE_OPENGL, physicsClientId=self.client)
         if pid < 0:
             log.warning("EGL renderer plugin did not load; the camera uses TinyRenderer (slower)")
         else:
@@ -412,9 +416,12 @@ class Simulator:
         view = pb.computeViewMatrix(eye, target, (0, 0, 1), physicsClientId=self.client)
         proj = pb.computeProjectionMatrixFOV(math.degrees(cam.vfov_rad), cam.width_px / cam.height_px,
                                              cam.near_m, cam.far_m, physicsClientId=self.client)
-        _, _, rgba, _, _ = pb.getCameraImage(cam.width_px, cam.height_px, view, proj, shadow=0,
-                                             flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
-                                             physicsClientId=self.client)
+        # the EGL plugin prints its GL vendor at the first frame
+        with quiet_c_output() if self._first_frame else contextlib.nullcontext():
+            _, _, rgba, _, _ = pb.getCameraImage(cam.width_px, cam.height_px, view, proj, shadow=0,
+                                                 flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
+                                                 physicsClientId=self.client)
+        self._first_frame = False
         return np.asarray(rgba, dtype=np.uint8).reshape(cam.height_px, cam.width_px, 4)[..., :3].copy()
 
     def add_box(self, x0: float, y0: float, x1: float, y1: float) -> None:
