@@ -298,6 +298,7 @@ HEADER_STRUCTS = {
     ("scan_matcher.hpp", "MatcherParams"): ("slam.yaml", ("slam", "matcher"), {}),
     ("camera_coverage.hpp", "CoverageParams"): ("explorer.yaml", ("tag_search", "coverage"), {}),
     ("costmap.hpp", "InflationParams"): (None, (), {}),
+    ("mppi/optimizer.hpp", "OptimizerSettings"): ("mppi.yaml", (), {}),
 }
 
 
