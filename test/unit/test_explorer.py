@@ -29,6 +29,7 @@ from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings
 from turtlebot_recon.exploration.strategies import make_strategy
 from turtlebot_recon.planning import INSCRIBED, CostmapSettings, dijkstra, make_costmap
 from turtlebot_recon.robot import load_robot
+from turtlebot_recon.planning.navigation import GOAL_UNREACHABLE
 
 import test_frontiers
 
@@ -168,6 +169,50 @@ def test_aborted_goal_still_reachable_is_resent_up_to_abort_retries_then_fails(r
     assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.retries == 0
     # the retry line is throttled (5 s of sim time): one line for both re-sends
     assert len(run.lines("which is still reachable: sent again")) == min(retries, 1)
+
+
+def test_a_goal_the_navigator_cannot_reach_is_dropped_and_not_resent_while_the_map_is_unchanged():
+    """"goal unreachable: ..." is the goal's fault, not the robot's: no retry, one line naming
+    why, and the goal stays out while the map near it is unchanged (up to 31 re-sends before);
+    once the map there changes it is a goal again."""
+    run = Run()
+    goal = run.until_goal()
+    a, _ = run.tick(events=[NavEvent(goal.seq, "failed", GOAL_UNREACHABLE + "plan_lattice: goal "
+                                     "(20, 20) is unreachable from start (30, 30)")])
+    assert a.cycled
+    (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.retries == 0
+    (line,) = run.lines("explorer: goal (1.03, 1.03) dropped: the navigator plan_lattice")
+    assert "not sent again while the map within 1.0 m of it is unchanged" in line
+    assert not run.ex.book.is_blacklisted(LEFT_GOAL) and run.ex.book.failures(LEFT_GOAL) == 0
+    # the right goal fails as well: nothing usable is left on this map; the left one is not re-sent
+    a, _ = run.tick(events=[NavEvent(nxt.seq, "failed", GOAL_UNREACHABLE + "goal (2.98, 1.03) is in "
+                                     "an obstacle")])
+    for _ in range(30):
+        assert not [x for x in run.actions() if isinstance(x, SendGoal)]
+    assert run.ex.goal_available is False
+    # a wall mapped near the left goal: the map there changed, the goal is one again
+    grid = strip()
+    grid.data[5, 25:30] = 100
+    run.grid = grid
+    assert run.until_goal().xy == approx_xy(LEFT_GOAL)
+
+
+def test_the_next_goal_goes_out_within_stopping_distance_before_the_arrival():
+    """Driving at 0.2 m/s, the burger (2.5 m/s^2) needs 0.008 m to stop and covers 0.02 m per
+    tick: within 0.028 m of the goal it counts as reached and the next goal goes out at once,
+    before the navigator reports the arrival (the controller does not brake for it)."""
+    run = Run()
+    goal = run.until_goal()
+    x = goal.xy[0] + 0.2                                  # 0.2 m east of it, driving west
+    for _ in range(9):
+        run.pose = (x, goal.xy[1], math.pi)
+        assert not [s for s in run.actions() if isinstance(s, SendGoal)]
+        x -= 0.02
+    run.pose = (goal.xy[0] + 0.01, goal.xy[1], math.pi)
+    (nxt,) = [s for s in run.actions() if isinstance(s, SendGoal)]
+    assert nxt.xy == approx_xy(RIGHT_GOAL) and nxt.seq == goal.seq + 1
+    assert run.ex.book.successes(LEFT_GOAL) == 1 and run.lines("within stopping distance")
 
 
 def test_a_result_for_a_replaced_goal_is_ignored():

@@ -16,7 +16,7 @@ import pytest
 
 from turtlebot_recon.config import ConfigError, load_yaml
 from turtlebot_recon.exploration import tour
-from turtlebot_recon.exploration.context import Context
+from turtlebot_recon.exploration.context import Context, Motion
 from turtlebot_recon.exploration.frontiers import Frontier, cluster, find_frontier_cells
 from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings, ProgressWatchdog, stands_for
 from turtlebot_recon.exploration.strategies import (STRATEGIES, Density, ExploreLite, GainDistanceHeading,
@@ -34,8 +34,13 @@ def cell_xy(r, c, origin=(0.0, 0.0)):
     return (origin[0] + (c + 0.5) * RES, origin[1] + (r + 0.5) * RES)
 
 
+# seconds of driving for recon: round numbers (a TurtleBot 3 drives 0.22-0.26 m/s, turns 0.8 rad/s
+# in place in the lattice, accelerates 2.5 m/s^2)
+MOTION = Motion(cruise_mps=0.25, turn_radps=0.8, accel_mps2=2.5)
+
+
 def make_ctx(occ, robot_cell, yaw=0.0, now_s=0.0, visits=None, seed=0, priority=(),
-             origin=(0.0, 0.0)):
+             origin=(0.0, 0.0), motion=MOTION):
     """Context with the robot at the centre of ``robot_cell``."""
     occ = np.asarray(occ, dtype=np.int8)
     costmap = np.where(occ < 0, 255, np.where(occ >= 65, 254, 0)).astype(np.uint8)
@@ -43,7 +48,7 @@ def make_ctx(occ, robot_cell, yaw=0.0, now_s=0.0, visits=None, seed=0, priority=
     return Context(robot_xy=cell_xy(*robot_cell, origin), robot_yaw=yaw, now_s=now_s,
                    resolution=RES, origin=origin, occupancy=occ, costmap=costmap,
                    cost_to_come=field, visits=visits, rng=np.random.default_rng(seed),
-                   priority_goals=tuple(priority))
+                   priority_goals=tuple(priority), motion=motion)
 
 
 def make_frontier(ctx, cells, id=0, gain=400, goal_cell=None):
@@ -324,8 +329,8 @@ def corridor():
 def test_recon_tour_goes_to_the_lone_end_first(corridor):
     ctx, at = corridor
     fs = at(0, 110, 160, 200)         # x = 0.025 | 5.525, 8.025, 10.025
-    # first legs: 3.0 + 0.3 pi = 3.94 (left, behind) vs 2.5 (right), each - 0.1 for gain.
-    # left first: 3.84 + 5.5 + 2.5 + 2.0 = 13.84;  right first: 2.4 + 2.5 + 2.0 + 10.0 = 16.9
+    # first legs (s): (3.0 - 0.1 gain) / 0.25 + pi / 0.8 = 15.5 (left, behind) vs 2.4 / 0.25 = 9.6
+    # (right). Left first: 15.5 + (5.5 + 2.5 + 2.0) / 0.25 = 55.5; right first: 9.6 + 58 = 67.6
     s = Recon()
     assert s.choose(fs, ctx, GoalBook()).id == 0
     assert [round(x, 3) for x, _ in s.last_tour] == [0.025, 5.525, 8.025, 10.025]
@@ -336,24 +341,49 @@ def test_recon_tour_goes_to_the_lone_end_first(corridor):
     assert Recon(Recon.Settings(use_tour=False)).choose(fs, ctx, GoalBook()).id == 1
 
 
-def test_recon_hysteresis(corridor):
+def test_recon_commits_to_its_goal_until_a_map_event(corridor):
+    """No cluster born or gone, the pursued one's view the same: the goal is kept and no tour
+    is planned, however the costs moved (the robot drove on)."""
     ctx, at = corridor
     up = dataclasses.replace(ctx, robot_yaw=math.pi / 2)     # both sides cost the same turn
     fs = at(20, 104)                                         # x = 1.025 and 5.225
-    s = Recon()
-    # robot x 3.025: left 2.0 + 4.2 = 6.2 < right 2.2 + 4.2 = 6.4 -> left
-    assert s.choose(fs, up, GoalBook()).id == 0
+    s, book = Recon(), GoalBook()
+    first = s.choose(fs, up, book)             # left 2.0 + 4.2 = 6.2 m < right 2.2 + 4.2 = 6.4 m
+    assert first.id == 0 and s.plans == 1
+    book.start(first, up)
+    c = make_ctx(np.zeros((20, 240)), (10, 80), yaw=math.pi / 2)    # x 4.025: right far better
+    same = [make_frontier(c, f.cells, id=f.id) for f in fs]
+    assert s.choose(same, c, book).id == 0 and s.plans == 1
+    assert Recon().choose(same, c, GoalBook()).id == 1        # a fresh strategy goes right
 
-    def moved(col):
-        return make_ctx(np.zeros((20, 240)), (10, col), yaw=math.pi / 2)
-    # robot x 3.325: left 2.3 + 4.2 = 6.5, right 1.9 + 4.2 = 6.1: better by 0.4 < 1.0 -> keep
-    c = moved(66)
-    fs_c = [make_frontier(c, f.cells, id=f.id) for f in fs]
-    assert s.choose(fs_c, c, GoalBook()).id == 0
-    assert Recon().choose(fs_c, c, GoalBook()).id == 1        # a fresh strategy switches
-    # robot x 4.025: left 3.0 + 4.2 = 7.2, right 1.2 + 4.2 = 5.4: better by 1.8 > 1.0 -> switch
-    c = moved(80)
-    assert s.choose([make_frontier(c, f.cells, id=f.id) for f in fs], c, GoalBook()).id == 1
+
+@pytest.mark.parametrize("col, kept", [(66, True), (80, False)])
+def test_recon_keeps_its_goal_unless_a_tour_is_faster_by_more_than_a_switch_costs(corridor, col, kept):
+    """At a map event (a third cluster, far right, gone: explored) the tour is planned again.
+    Switching from the left goal to the right one costs the turn to face it, (pi/2) / 0.8 =
+    1.96 s. Robot at x 3.325 (col 66): left 2.3 + 4.2, right 1.9 + 4.2: right is 0.4 m = 1.6 s
+    faster: kept. At x 4.025 (col 80): left 3.0, right 1.2: 7.2 s faster: switched."""
+    ctx, at = corridor
+    up = dataclasses.replace(ctx, robot_yaw=math.pi / 2)
+    fs = at(20, 104, 230)                      # x = 1.025, 5.225, 11.525
+    s, book = Recon(), GoalBook()
+    first = s.choose(fs, up, book)             # left first: 2.0 + 4.2 + 6.3 < right first
+    assert first.id == 0
+    book.start(first, up)
+    c = make_ctx(np.zeros((20, 240)), (10, col), yaw=math.pi / 2)
+    now = [make_frontier(c, f.cells, id=f.id) for f in fs[:2]]
+    assert s.choose(now, c, book).id == (0 if kept else 1)
+    assert s.plans == 2
+
+
+def test_recon_switch_cost_grows_with_speed(corridor):
+    """Stopping from speed v and getting back to it loses v / a: at 0.25 m/s and 2.5 m/s^2,
+    0.1 s; the switch that a standing robot makes by 0.05 s, a moving one does not."""
+    ctx, _ = corridor
+    fast = dataclasses.replace(MOTION, speed_mps=0.25)
+    assert fast.stop_s == pytest.approx(0.1) and MOTION.stop_s == 0.0
+    assert fast.stopping_distance_m == pytest.approx(0.25 ** 2 / 5.0)
+    assert MOTION.path_s(2.0) == pytest.approx(8.0) and MOTION.turn_s(-math.pi) == pytest.approx(math.pi / 0.8)
 
 
 def test_recon_uses_path_distance_not_euclidean():
@@ -379,9 +409,10 @@ def test_recon_first_leg_by_hand_and_visits(corridor):
     visits[10, 95:100] = 3                     # 3 passes within 0.5 m of the right goal
     v = dataclasses.replace(ctx, robot_yaw=math.pi / 2, visits=visits)
     s = Recon()
-    # right: 2.0 + 0.3 * pi/2 + 0.5 * 3 - 0.1 * 400 * 0.0025 = 2.0 + 0.4712 + 1.5 - 0.1
-    assert s.first_leg(right, v) == pytest.approx(2.0 + 0.3 * math.pi / 2 + 1.5 - 0.1)
-    assert s.first_leg(left, v) == pytest.approx(2.0 + 0.3 * math.pi / 2 - 0.1)
+    # seconds: (2.0 m + 0.5 m * 3 passes - 0.1 m/m^2 * 400 * 0.0025 m^2) / 0.25 m/s
+    #          + (pi/2 rad) / 0.8 rad/s
+    assert s.first_leg(right, v) == pytest.approx((2.0 + 1.5 - 0.1) / 0.25 + math.pi / 2 / 0.8)
+    assert s.first_leg(left, v) == pytest.approx((2.0 - 0.1) / 0.25 + math.pi / 2 / 0.8)
     assert Recon().choose([right, left], v, GoalBook()).id == 0    # the unvisited side
 
 

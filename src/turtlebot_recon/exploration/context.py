@@ -20,6 +20,44 @@ Point = Tuple[float, float]
 Cell = Tuple[int, int]
 
 
+@dataclass(frozen=True)
+class Motion:
+    """Seconds of driving, as the navigator drives: its lattice's cruise speed and in-place turn
+    rate (``LatticeSettings.with_robot``: the cost field's metres are metres at cruise speed,
+    turns included), the robot's acceleration, and its speed now. Goals are chosen and costed
+    with it, so the explorer and the controller agree on what "near" means."""
+    cruise_mps: float                 # m/s, the lattice's cruise speed (the robot's top speed)
+    turn_radps: float                 # rad/s, the lattice's (and the controllers') in-place turn rate
+    accel_mps2: float                 # m/s^2, the robot's linear acceleration limit
+    speed_mps: float = 0.0            # m/s, the robot's speed now (0: standing)
+
+    @classmethod
+    def of(cls, robot, lattice, speed_mps: float = 0.0) -> "Motion":
+        """From a ``RobotSpec`` and the navigator's ``LatticeSettings``."""
+        lattice = lattice.with_robot(robot)
+        return cls(lattice.cruise_speed_mps, lattice.turn_speed_radps, robot.max_linear_accel_mps2,
+                   abs(float(speed_mps)))
+
+    def path_s(self, cost_m) -> float:
+        """Seconds to drive a lattice cost of ``cost_m`` (metres at cruise speed, turns included)."""
+        return cost_m / self.cruise_mps
+
+    def turn_s(self, angle_rad: float) -> float:
+        """Seconds to turn in place by ``angle_rad``."""
+        return abs(angle_rad) / self.turn_radps
+
+    @property
+    def stop_s(self) -> float:
+        """Seconds a stop costs at the present speed: braking from v and accelerating back to it
+        at ``accel_mps2`` take 2 v / a, and cover v^2 / a, which at v take v / a: v / a lost."""
+        return self.speed_mps / self.accel_mps2
+
+    @property
+    def stopping_distance_m(self) -> float:
+        """Metres the robot needs to stop from its present speed: v^2 / 2a."""
+        return self.speed_mps ** 2 / (2.0 * self.accel_mps2)
+
+
 @dataclass(frozen=True, eq=False)
 class Context:
     """What a strategy may look at. Grids: nav_msgs/OccupancyGrid order (row 0 = smallest y)."""
@@ -35,6 +73,8 @@ class Context:
     rng: np.random.Generator          # seeded by the caller
     max_cost: int = 252               # a goal cell must cost <= this (below inscribed)
     priority_goals: Tuple[Point, ...] = ()  # points to visit before frontiers (seed 000: tags)
+    motion: Optional[Motion] = None   # seconds of driving (the explorer always gives it; recon
+                                      # needs it, the seeds' strategies cost in metres)
 
     def xy_to_cell(self, xy: Sequence[float]) -> Cell:
         return geometry.xy_to_cell(xy, self.resolution, self.origin)

@@ -66,8 +66,9 @@ from ..control.footprint import BodyCheck
 from ..geometry import inside, xy_to_cell
 from ..planning import (INSCRIBED, LatticeSettings, escape_arcs, footprint_costmap,
                         lattice_cost_to_come)
+from ..planning.navigation import GOAL_UNREACHABLE
 from ..robot import RobotSpec
-from .context import Context
+from .context import Context, Motion
 from .frontiers import FrontierSettings, detect
 from .goals import GoalBook, stands_for
 from .tag_search import TagSearch, View
@@ -272,6 +273,8 @@ class Explorer:
         self.phase = "map"
         self.view: Optional[View] = None                    # the tag search's view pursued
         self._no_frontier = 0                               # cycles in a row without a frontier goal
+        self.speed_mps = 0.0                                # from the last two ticks' poses
+        self._last_pose: Optional[Tuple[float, tuple]] = None   # (t, pose) of the last tick
 
     @property
     def started(self) -> bool:
@@ -292,7 +295,9 @@ class Explorer:
         out = self._out = Outputs()
         if self.done:
             return out                                    # DONE is final: nothing left to do
+        self._measure_speed(inp.now_s, inp.pose)
         self._nav_results(inp.now_s, inp.pose, inp.nav_events)
+        self._hand_off(inp.now_s, inp.pose)
         self._nav_before_cycle = self.nav
         if self.search is not None and inp.grid is not None:
             g = inp.grid
@@ -346,6 +351,16 @@ class Explorer:
                 continue                                   # a goal we already replaced
             self.nav = event.status
             failed = event.status == "failed"
+            if failed and event.text.startswith(GOAL_UNREACHABLE) and sent.kind == "explore" \
+                    and self.ctx is not None:
+                # the goal, not the robot: no retry, and not again while the map near it stays
+                self.book.unreachable(sent.xy, self.ctx, pose[:2])
+                self._log(INFO, "explorer: goal (%.2f, %.2f) dropped: the navigator %s; not sent again "
+                          "while the map within %.1f m of it is unchanged", *sent.xy,
+                          event.text[len(GOAL_UNREACHABLE):], self.book.settings.unreachable_window_m)
+                self.view = None if self.view is not None and self.view.xy == sent.xy else self.view
+                self.cycle_now = True
+                continue
             if failed and self._retry(sent, now, pose, event.text):
                 continue
             if sent.kind != "explore" or self.mode != "explore":
@@ -398,12 +413,50 @@ class Explorer:
         if ctx is None or self.mode != "explore":
             return False
         rest = [f for f in self.frontiers if math.dist(f.goal, arrived) > self.s.same_goal_m]
-        choice = self.strategy.choose(rest, ctx, self.book)
+        choice = self._choose(rest, ctx)
         if choice is None or math.dist(choice.goal, arrived) <= self.s.same_goal_m:
             return False                                  # (a strategy may place its own goals)
         self.choice = choice
         self._pursue(ctx, pose)
         return True
+
+    def _choose(self, frontiers: list, ctx: Context):
+        """The strategy's choice, less goals the navigator found unreachable on the map as it is
+        (``GoalBook.is_unreachable``; a strategy that places its own goals may pick one again)."""
+        frontiers = list(frontiers)
+        while True:
+            choice = self.strategy.choose(frontiers, ctx, self.book)
+            if choice is None or not self.book.is_unreachable(choice.goal, ctx):
+                return choice
+            frontiers = [f for f in frontiers if f.id != choice.id]
+
+    def _measure_speed(self, now: float, pose: tuple) -> None:
+        """The robot's speed from this tick's pose and the last one's (``Motion.speed_mps``), at
+        most its top speed (a faster step is the pose jumping: a localisation correction)."""
+        last, self._last_pose = self._last_pose, (now, tuple(pose))
+        if last is not None and 0.0 < now - last[0] <= 1.0:
+            self.speed_mps = min(math.dist(pose[:2], last[1][:2]) / (now - last[0]),
+                                 self.robot.max_linear_mps)
+        elif last is not None:
+            self.speed_mps = 0.0                          # a clock jump: unknown, say standing
+
+    def _hand_off(self, now: float, pose: tuple) -> None:
+        """Within stopping distance of the frontier goal, plus the tick it takes the next goal to
+        reach the navigator, the goal counts as reached: the next one goes out now (``_carry_on``)
+        and the controller need not brake for the old one."""
+        active, sent = self.book.active, self.sent
+        if (active is None or sent is None or sent.kind != "explore" or self.nav != "active"
+                or self.mode != "explore" or sent.xy != active.goal or self.view is not None):
+            return
+        motion = Motion.of(self.robot, self.lattice, self.speed_mps)
+        reach_m = motion.stopping_distance_m + self.speed_mps / self.s.supervisor_rate_hz
+        if self.speed_mps <= 0.0 or math.dist(pose[:2], sent.xy) > reach_m:
+            return                                        # standing: the navigator's arrival ends it
+        self.book.succeeded(sent.xy, now)
+        self._arrived = sent.xy
+        self.cycle_now = True
+        self._log(DEBUG, "explorer: goal (%.2f, %.2f) within stopping distance (%.2f m at %.2f m/s): "
+                  "the next goal goes out now", *sent.xy, reach_m, self.speed_mps)
 
     # ------------------------------------------------------------------ explorer cycle
     def _cycle(self, now: float, pose: tuple, grid: Grid, visits: Optional[Grid],
@@ -419,13 +472,14 @@ class Explorer:
         frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
-                      visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1)
+                      visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1,
+                      motion=Motion.of(self.robot, self.lattice, self.speed_mps))
         # a goal is valid on any cell the robot can pass (it turns in place safely there: the
         # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
         # prefer goals further from walls where there is room
         self.ctx, self.frontiers = ctx, frontiers
         self._check_active_goal(ctx, frontiers, now)
-        self.choice = self.strategy.choose(frontiers, ctx, self.book)
+        self.choice = self._choose(frontiers, ctx)
         self.cycles += 1
         self._no_frontier = 0 if self.choice is not None else self._no_frontier + 1
         view = None

@@ -14,6 +14,10 @@ detection): a count "at" a point is the number of events within a radius of it.
   ``is_blacklisted(..., include_expired=True)`` lets its strategy see every entry.
 - Progress: ``ProgressWatchdog`` says when the distance to the goal has not shrunk for
   ``progress_timeout_s``.
+- Unreachable: ``unreachable(xy, ctx)`` records a goal the navigator found no way to (or no
+  place for) together with what the map looked like within ``unreachable_window_m`` of it;
+  ``is_unreachable(xy, ctx)`` holds while that part of the map is unchanged (the same goal
+  would fail the same way), and lets it go once the map there changed.
 - Re-evaluation: ``reevaluate_reason`` says when the goal's frontier was explored on the way
   (seed 003's stated weakness: it drives on to a target that is no longer worth it), when
   an obstacle appeared at the goal (seed 000's goal reset), or when it has no path any more.
@@ -29,6 +33,7 @@ from scipy.spatial import cKDTree
 
 from ..config import positive, require
 from ..geometry import cells_to_points, inside
+from ..mapping.map_io import OCCUPIED_THRESH
 from .context import Context, Point
 from .frontiers import Frontier
 from .viewpoints import Tried
@@ -52,10 +57,12 @@ class GoalBookSettings:
                                            # a current frontier cell is this close to it (3
                                            # cells: the jitter of a boundary between maps)
     reevaluate_min_fraction: float = 0.25  # re-evaluate when less than this fraction remains
+    unreachable_window_m: float = 1.0      # a goal the navigator found no way to is not sent
+                                           # again while the map this close to it is unchanged
 
     def validate(self, src: str) -> None:
         positive(src, self, "attempt_radius_m", "blacklist_radius_m", "expire_radius_m",
-                 "progress_timeout_s", "reevaluate_radius_m")
+                 "progress_timeout_s", "reevaluate_radius_m", "unreachable_window_m")
         n = self.blacklist_after_failures
         require(isinstance(n, int) and n >= 0, src, "blacklist_after_failures",
                 "must be an integer >= 0 (0: never)")
@@ -116,6 +123,8 @@ class GoalBook:
         self._successes: List[Tuple[Point, float]] = []
         self._blacklist: List[BlacklistEntry] = []
         self._blocked: List[Point] = []            # goals dropped as "blocked" (obstructed)
+        self._unreachable: List[Tuple[Point, bytes, Point]] = []   # (goal, the map near it then,
+                                                                     # where the robot stood)
         self.active: Optional[ActiveGoal] = None
         self.watchdog = ProgressWatchdog(settings.progress_timeout_s, settings.progress_min_m)
 
@@ -198,6 +207,35 @@ class GoalBook:
                        radius_m: Optional[float] = None) -> float:
         """Seed 003: 1, minus ``decrement`` per failure within the radius, at least ``floor``."""
         return max(floor, 1.0 - decrement * self.failures(xy, radius_m))
+
+    def unreachable(self, xy: Point, ctx: Context, robot_xy: Point) -> None:
+        """The navigator found no way from ``robot_xy`` to ``xy`` (or no place for the robot
+        there) on the map ``ctx`` shows: not a goal again while the map near it is unchanged
+        and the robot is still near where it was asked."""
+        xy = _xy(xy)
+        self._unreachable.append((xy, self._around(xy, ctx), _xy(robot_xy)))
+        self._clear_active(xy)
+
+    def is_unreachable(self, xy: Point, ctx: Context) -> bool:
+        """Within attempt_radius_m of a goal found unreachable, with the map near it unchanged
+        and the robot (``ctx.robot_xy``) within unreachable_window_m of where it stood then."""
+        r, window = self.settings.attempt_radius_m, self.settings.unreachable_window_m
+        return any(math.dist(p, xy) <= r + 1e-9 and math.dist(at, ctx.robot_xy) <= window
+                   and self._around(p, ctx) == seen for p, seen, at in self._unreachable)
+
+    def _around(self, xy: Point, ctx: Context) -> bytes:
+        """What the map says (unknown, free, occupied) within unreachable_window_m of ``xy``,
+        cells beyond the map's edge unknown: equal bytes, the same map there."""
+        k = int(math.ceil(self.settings.unreachable_window_m / ctx.resolution))
+        r, c = ctx.xy_to_cell(xy)
+        occ = ctx.occupancy
+        window = np.full((2 * k + 1, 2 * k + 1), -1, dtype=np.int8)
+        r0, r1 = max(r - k, 0), min(r + k + 1, occ.shape[0])
+        c0, c1 = max(c - k, 0), min(c + k + 1, occ.shape[1])
+        if r0 < r1 and c0 < c1:
+            window[r0 - (r - k):r1 - (r - k), c0 - (c - k):c1 - (c - k)] = occ[r0:r1, c0:c1]
+        kind = np.where(window < 0, 0, np.where(window >= OCCUPIED_THRESH, 2, 1)).astype(np.uint8)
+        return kind.tobytes()
 
     # -------------------------------------------------------------------------- blacklist
 

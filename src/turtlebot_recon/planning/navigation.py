@@ -76,6 +76,12 @@ class NavigationSettings:
         return getattr(self, SETTINGS_FIELD.get(self.controller, self.controller))
 
 
+# A failure that the goal causes, not the robot's situation (the goal has no cell where the
+# footprint fits, or the lattice has no way to it): its reason begins with this, so a caller
+# can tell "this goal, on this map" from "the robot is stuck" (explorer: not sent again while
+# the map near it is unchanged, instead of retried).
+GOAL_UNREACHABLE = "goal unreachable: "
+
 SETTINGS_FIELD = {"pure_pursuit": "follower"}   # controller -> its NavigationSettings field,
                                                 # where the two names differ
 
@@ -413,7 +419,7 @@ class Navigation:
         goals = [g for g in (self._fit(goal_cell, gyaw, headings=len(self._yaws), turnable=True),
                              self._fit(goal_cell, gyaw, headings=len(self._yaws))) if g is not None]
         if not goals:
-            return self._finish("failed", f"goal ({gx:.2f}, {gy:.2f}) is in an obstacle, unknown "
+            return self._finish("failed", f"{GOAL_UNREACHABLE}goal ({gx:.2f}, {gy:.2f}) is in an obstacle, unknown "
                                           f"space or off the map, with no cell within "
                                           f"{self.s.snap_radius_m} m where the footprint fits")
         # the goal's yaw is pursued where its nearest heading fits on the goal's own cell
@@ -445,7 +451,7 @@ class Navigation:
                 self._clear_path()
                 self.arc = arc
                 return True
-            return self._finish("failed", str(exc))
+            return self._finish("failed", f"{GOAL_UNREACHABLE}{exc}")
         moving = np.flatnonzero(~path.turned[1:]) + 1           # poses reached by driving
         backward = np.flatnonzero(path.reversed)
         if moving.size and path.reversed[moving[0]]:

@@ -21,9 +21,11 @@ def reachable_only(frontiers: Sequence[Frontier]) -> List[Frontier]:
 
 
 def usable(frontiers: Sequence[Frontier], ctx: Context, book: GoalBook) -> List[Frontier]:
-    """Frontiers whose own goal is reachable, affordable and not blacklisted."""
+    """Frontiers whose own goal is reachable, affordable, not blacklisted and not found
+    unreachable by the navigator on the map as it is (``GoalBook.is_unreachable``)."""
     return [f for f in frontiers
-            if f.reachable and ctx.goal_ok(f.goal_cell) and not book.is_blacklisted(f.goal)]
+            if f.reachable and ctx.goal_ok(f.goal_cell) and not book.is_blacklisted(f.goal)
+            and not book.is_unreachable(f.goal, ctx)]
 
 
 def with_goal(frontier: Frontier, cell: Cell, ctx: Context) -> Frontier:

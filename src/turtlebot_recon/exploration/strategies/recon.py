@@ -1,27 +1,24 @@
-"""recon (ours, the default): the first goal of a short tour over all reachable clusters,
-on path distances."""
+"""recon (ours, the default): the first goal of a short tour over all reachable clusters, in
+seconds of driving, committed to until a map event shows a faster tour."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import List, Optional
+from typing import List, Optional, Sequence
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from ...config import positive, require
 from .. import tour
 from ..context import Context, Point
 from ..frontiers import Frontier
 from ..goals import GoalBook
-from .common import distance, heading_error, usable, window_around
+from .common import heading_error, usable, window_around, with_goal
 
 
 @dataclass(frozen=True)
 class ReconSettings:
-    # Weights turn every term into metres of path, the unit of the tour.
-    turn_weight_m_per_rad: float = 0.3     # ~2x the distance a TB3 drives while turning 1 rad
-                                           # (v/omega = 0.26/1.82 = 0.14 m): turning also costs
-                                           # the stop and the re-acceleration
+    # Gain and visits are priced in metres of path, driven at the lattice's cruise speed.
     gain_weight_m_per_m2: float = 0.1      # a goal showing 10 m^2 more is worth a 1 m detour:
                                            # far below the 2 x 3.5 m^2 a lidar sweeps per metre
                                            # in the open, so gain breaks ties, not the tour
@@ -33,100 +30,168 @@ class ReconSettings:
     tour_cell_m: float = 0.1               # m, cells of the goal-to-goal Dijkstras: the map's
                                            # coarsened by round(this / resolution), at least 1
                                            # (4x fewer cells at 0.05 m)
-    hysteresis_m: float = 1.0              # keep the last goal unless the new tour is this much
-    hysteresis_ratio: float = 0.1          # ... or this fraction shorter (the larger of the two)
-    match_radius_m: float = 0.5            # the last goal "is still there" within this radius
 
     def validate(self, src: str) -> None:
-        for key in ("turn_weight_m_per_rad", "gain_weight_m_per_m2", "visit_weight_m_per_visit",
-                    "hysteresis_m", "hysteresis_ratio"):
+        for key in ("gain_weight_m_per_m2", "visit_weight_m_per_visit"):
             require(getattr(self, key) >= 0, src, key, "must be >= 0")
-        positive(src, self, "visit_radius_m", "match_radius_m", "tour_cell_m")
+        positive(src, self, "visit_radius_m", "tour_cell_m")
         require(isinstance(self.tour_max_clusters, int) and self.tour_max_clusters >= 1, src,
                 "tour_max_clusters", "must be an integer >= 1")
 
 
 class Recon:
-    """Ours: the first goal of a short tour through every reachable cluster.
+    """Ours: the first goal of a short tour through every reachable cluster, in seconds.
 
-    First leg (robot -> goal i), in metres of path:
-        leg_i = path_cost_i + turn_weight * |heading error_i|
-                + visit_weight * visits_i - gain_weight * gain_area_i
-    path_cost from the Dijkstra field (not Euclidean: walls count); heading error to the
-    goal's straight-line bearing; visits = most passes recorded within visit_radius_m of the
-    goal; gain_area = gain cells * resolution^2. Between goals: Dijkstra path distances on
-    tour_cell_m cells (``tour.path_distance_matrix``). The clusters are ordered by nearest
-    insertion + 2-opt from the robot (``tour.solve``) and the first is chosen, so the robot
-    finishes one end of the building before crossing to the other. Hysteresis: the last goal
-    is kept while the best tour that starts with it is at most max(hysteresis_m,
-    hysteresis_ratio * |best|) longer than the best tour.
+    First leg (robot -> goal i), in seconds (``ctx.motion``, the navigator's lattice speeds):
+        leg_i = (path_cost_i + visit_weight * visits_i - gain_weight * gain_area_i) / cruise
+                + |heading error_i| / turn rate
+    path_cost from the lattice's cost field (walls count, turns on the way included: metres at
+    cruise speed); heading error to the goal's straight-line bearing (the field starts the
+    robot at whichever heading suits it); visits = most passes recorded within visit_radius_m
+    of the goal; gain_area = gain cells * resolution^2. Between goals: Dijkstra path distances
+    on tour_cell_m cells (``tour.path_distance_matrix``) at cruise speed. The clusters are
+    ordered by nearest insertion + 2-opt from the robot (``tour.solve``) and the first is
+    chosen, so the robot finishes one end of the building before crossing to the other.
 
-    Candidates: usable goals (reachable, affordable, not blacklisted; a frontier that
-    survived an arrival at its goal comes with another viewpoint as its goal, see
-    ``viewpoints``); the tour_max_clusters cheapest first legs enter the tour. Small gains
-    are not set aside for later: a small frontier (a dead end's last cells, a corner) costs
-    little while the robot is near it and a long trip back at the end (keeping gains under
-    0.1 m^2 for last cost about 20 % of the time to 99 % in the maze).
+    Commitment: the goal being pursued (``book.active``; its cluster is the candidate holding
+    most of its frontier cells) is kept, and the tour is not planned again, until a map event:
+    a cluster born or gone (no cluster of the last plan within ``reevaluate_radius_m`` of it,
+    or the reverse) or the pursued cluster's gain halved since then. The explorer drops the
+    goal when it is reached, its frontier is seen, it is blocked or cut off, so those need no
+    event here. At an event the tour is planned again and the pursued goal still kept unless
+    the best tour beats the best tour that starts with it by more than what switching costs:
+    stopping from the present speed and turning to the new goal (``Motion.stop_s`` +
+    ``Motion.turn_s`` of its heading error); and never when the pursued goal is nearer than
+    that in time (arriving costs less than turning away).
+
+    Candidates: usable goals (reachable, affordable, not blacklisted, not found unreachable on
+    an unchanged map; a frontier that survived an arrival at its goal comes with another
+    viewpoint as its goal, see ``viewpoints``); the tour_max_clusters cheapest first legs
+    enter the tour, and the pursued cluster. Small gains are not set aside for later: a small
+    frontier (a dead end's last cells, a corner) costs little while the robot is near it and
+    a long trip back at the end (keeping gains under 0.1 m^2 for last cost about 20 % of the
+    time to 99 % in the maze).
     """
     name = "recon"
     Settings = ReconSettings
 
     def __init__(self, settings: ReconSettings = ReconSettings()):
         self.settings = settings
-        self.last_goal: Optional[Point] = None
         self.last_tour: List[Point] = []   # goals in tour order, for display
+        self.plans = 0                     # tours planned (decisions at map events)
+        self._clusters: List[np.ndarray] = []   # the last plan's candidates' frontier points
+        self._pursued_gain = 0               # the pursued cluster's gain at the last plan
 
     def first_leg(self, f: Frontier, ctx: Context) -> float:
-        s = self.settings
+        """Seconds from the robot to ``f``'s goal (class docstring)."""
+        s, motion = self.settings, _motion(ctx)
         visits = 0
         if ctx.visits is not None:
-            k = int(math.ceil(s.visit_radius_m / ctx.resolution))
+            k = int(np.ceil(s.visit_radius_m / ctx.resolution))
             window = window_around(ctx.visits, f.goal_cell, k)
             visits = int(window.max()) if window.size else 0
-        return (f.path_cost_m + s.turn_weight_m_per_rad * heading_error(ctx, f.goal)
-                + s.visit_weight_m_per_visit * visits
-                - s.gain_weight_m_per_m2 * f.gain * ctx.resolution ** 2)
+        metres = (f.path_cost_m + s.visit_weight_m_per_visit * visits
+                  - s.gain_weight_m_per_m2 * f.gain * ctx.resolution ** 2)
+        return motion.path_s(metres) + motion.turn_s(heading_error(ctx, f.goal))
 
     def choose(self, frontiers: List[Frontier], ctx: Context, book: GoalBook) -> Optional[Frontier]:
         s = self.settings
         cands = usable(frontiers, ctx, book)
         if not cands:
-            self.last_goal, self.last_tour = None, []
+            self.last_tour, self._clusters = [], []
             return None
+        radius_m = book.settings.reevaluate_radius_m
+        points = [_points(f, ctx) for f in cands]
+        pursued = _pursued(book, points, radius_m)
+        if pursued is not None and not self._event(points, cands[pursued], radius_m):
+            return _keep(cands[pursued], book, ctx)
+        self.plans += 1
+        self._clusters = points
+        self._pursued_gain = cands[pursued].gain if pursued is not None else 0
         legs = np.array([self.first_leg(f, ctx) for f in cands])
-        keep = np.argsort(legs, kind="stable")[:s.tour_max_clusters]
+        keep = list(np.argsort(legs, kind="stable")[:s.tour_max_clusters])
+        if pursued is not None and pursued not in keep:
+            keep.append(pursued)
         cands, legs = [cands[i] for i in keep], legs[keep]
+        pursued = keep.index(pursued) if pursued is not None else None
         if not s.use_tour or len(cands) == 1:
-            order = list(range(len(cands)))
-            pick = 0
+            order = [int(i) for i in np.argsort(legs, kind="stable")]
+            best_s, D = legs[order[0]], None
         else:
             factor = max(1, int(round(s.tour_cell_m / ctx.resolution)))
             D = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come,
                                           [f.goal_cell for f in cands], ctx.resolution, factor)
+            D = _motion(ctx).path_s(D)
             D[0, 1:] = legs
             D = tour.prepare(D)
             best = tour.solve(D)
-            order = [i - 1 for i in best[1:]]
-            pick = self._hysteresis(order[0], tour.length(D, best), D, cands)
-            if pick != order[0]:
-                order.remove(pick)
-                order.insert(0, pick)
-        self.last_goal = cands[pick].goal
+            order, best_s = [i - 1 for i in best[1:]], tour.length(D, best)
+        pick = order[0]
+        if pursued is not None and pursued != pick and self._stay(pursued, pick, best_s, D, legs, cands, ctx):
+            order.remove(pursued)
+            order.insert(0, pursued)
+            pick = pursued
         self.last_tour = [cands[i].goal for i in order]
-        return cands[pick]
+        return _keep(cands[pick], book, ctx) if pick == pursued else cands[pick]
 
-    def _hysteresis(self, pick: int, best_m: float, D: np.ndarray, cands: List[Frontier]) -> int:
-        """Index of the last goal if it is still a candidate and nearly as good, else pick."""
-        s = self.settings
-        if self.last_goal is None:
-            return pick
-        dist = [distance(self.last_goal, f.goal) for f in cands]
-        last = int(np.argmin(dist))
-        if dist[last] > s.match_radius_m or last == pick:
-            return pick
-        node = last + 1                    # forced first: solve the rest from there
-        rest = [node] + [i for i in range(1, len(D)) if i != node]
-        sub = D[np.ix_(rest, rest)]
-        forced_m = D[0, node] + tour.length(sub, tour.solve(sub))
-        margin = max(s.hysteresis_m, s.hysteresis_ratio * abs(best_m))
-        return last if forced_m <= best_m + margin else pick
+    def _event(self, points: Sequence[np.ndarray], pursued: Frontier, radius_m: float) -> bool:
+        """A map event since the last plan: a cluster born or gone, or the pursued cluster's
+        gain halved (its view changed)."""
+        if not self._clusters or 2 * pursued.gain < self._pursued_gain:
+            return True
+        return _unmatched(points, self._clusters, radius_m) or _unmatched(self._clusters, points, radius_m)
+
+    def _stay(self, pursued: int, pick: int, best_s: float, D: Optional[np.ndarray], legs: np.ndarray,
+              cands: List[Frontier], ctx: Context) -> bool:
+        """Keep the pursued goal: the best tour is not faster than the best one that starts with
+        it by more than a switch costs, or the pursued goal is nearer than that."""
+        motion = _motion(ctx)
+        switch_s = motion.stop_s + motion.turn_s(heading_error(ctx, cands[pick].goal))
+        if legs[pursued] <= switch_s:
+            return True
+        if D is None:
+            forced_s = legs[pursued]
+        else:
+            node = pursued + 1                 # forced first: solve the rest from there
+            rest = [node] + [i for i in range(1, len(D)) if i != node]
+            sub = D[np.ix_(rest, rest)]
+            forced_s = D[0, node] + tour.length(sub, tour.solve(sub))
+        return forced_s <= best_s + switch_s
+
+
+def _motion(ctx: Context):
+    if ctx.motion is None:
+        raise ValueError("recon costs goals in seconds: the Context needs motion (Motion.of(robot, lattice))")
+    return ctx.motion
+
+
+def _points(f: Frontier, ctx: Context) -> np.ndarray:
+    cells = np.reshape(f.cells, (-1, 2)).astype(float)
+    return np.column_stack([ctx.origin[0] + (cells[:, 1] + 0.5) * ctx.resolution,
+                            ctx.origin[1] + (cells[:, 0] + 0.5) * ctx.resolution])
+
+
+def _pursued(book: GoalBook, points: Sequence[np.ndarray], radius_m: float) -> Optional[int]:
+    """The candidate holding most of the pursued goal's frontier cells (within radius_m), or None."""
+    active = book.active
+    if active is None or len(active.frontier_points) == 0:
+        return None
+    counts = [int(np.count_nonzero(cKDTree(p).query(active.frontier_points, k=1)[0] <= radius_m + 1e-9))
+              for p in points]
+    best = int(np.argmax(counts))
+    return best if counts[best] > 0 else None
+
+
+def _keep(f: Frontier, book: GoalBook, ctx: Context) -> Frontier:
+    """The pursued cluster with the goal already sent, where that is still a valid goal (its
+    cluster's goal cell moves as the frontier recedes: a new point would replan for nothing)."""
+    cell = ctx.xy_to_cell(book.active.goal)
+    return with_goal(f, cell, ctx) if ctx.goal_ok(cell) else f
+
+
+def _unmatched(points: Sequence[np.ndarray], others: Sequence[np.ndarray], radius_m: float) -> bool:
+    """Some cluster of ``points`` has no cell within radius_m of any cluster of ``others``."""
+    if not others:
+        return bool(points)
+    tree = cKDTree(np.concatenate(others))
+    return any(not np.any(tree.query(p, k=1)[0] <= radius_m + 1e-9) for p in points)
