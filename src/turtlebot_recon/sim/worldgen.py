@@ -669,6 +669,71 @@ def doors(seed=6):
                    extra=extra)
 
 
+def cluttered(seed=7):
+    """25 x 17 m, cluttered (issue 30's held-out benchmark world, for both TurtleBot 3s): a rock
+    field of irregular rocks 0.2-1.1 m across with 0.45-0.8 m gaps fills the west and middle;
+    across it runs a hall at 56 deg (2.5 m wide) whose long walls have 0.3 m slits, too narrow
+    for either robot's planner (the burger needs 0.35 m), so most of it is seen through them;
+    its only door, 0.45 m, is at its south end; on the east, three rooms behind 0.45 m doors
+    (one with a closet behind another) with furniture. A 1 m path winds through the field from
+    the start to the hall's door and the rooms' doors, so the waffle_pi (which turns in place
+    only where its 0.51 m turning disc fits) can reach them; off it only the rocks' gaps lead.
+    8 tags, sampled on the walls."""
+    rng = np.random.default_rng(seed)
+    W, H, T = 25.0, 17.0, 0.2
+    cv = Canvas(W, H)
+    cv.building(W, H, T)
+    xr = 18.05                                      # rooms x in [18.1, 24.8]
+    cv.vwall(xr, T, H - T)
+    cv.hwall(5.75, xr, W - T)                       # rooms y in [0.2, 5.7], [5.8, 11.2], [11.3, 16.8]
+    cv.hwall(11.25, xr, W - T)
+    cv.vwall(22.05, 5.8, 8.45)                      # closet in the middle room, x [22.1, 24.8], y [5.8, 8.4]
+    cv.hwall(8.45, 22.05, W - T)
+    # 0.45 m doors centred on x.x25, so that both edges lie on the 0.05 m grid
+    for y in (3.025, 8.525, 14.025):
+        cv.door(xr, y, 0.45, vertical=True)
+    cv.door(22.05, 7.025, 0.45, vertical=True)
+    # The hall: a parallelogram with horizontal ends at y 1.5 and 15.5, its long walls 0.15 m
+    # thick (0.18 m along x at 56 deg).
+    inner = np.array([(4.0, 1.55), (7.0, 1.55), (16.5, 15.45), (13.5, 15.45)])
+    cv.polygon([(3.82, 1.45), (7.18, 1.45), (16.68, 15.55), (13.32, 15.55)])
+    cv.polygon(inner, FREE)
+    cv.door(5.525, 1.5, 0.45, t=0.2)                # t: the polygon's edge pixels widen the wall
+    u = np.subtract(inner[2], inner[1]) / np.linalg.norm(np.subtract(inner[2], inner[1]))
+    n = np.array([u[1], -u[0]])                     # the east wall's outward normal
+    slits = []
+    for a, b, out in ((inner[0], inner[3], -n), (inner[1], inner[2], n)):   # west wall, east wall
+        for f in (0.25, 0.5, 0.75):
+            c = np.add(a, f * np.subtract(b, a)) + out * 0.09             # on the wall's centre line
+            cv.polygon([c + su * 0.15 * u + sn * 0.2 * out for su, sn in ((-1, -1), (1, -1), (1, 1), (-1, 1))], FREE)
+            slits.append(tuple(c + out * 0.7))
+    walls = cv.img != FREE
+    for box in ((20.0, 1.5, 21.5, 2.5), (24.3, 0.2, W - T, 3.0),          # room S: table, shelf
+                (18.6, 10.2, 20.6, 11.2),                                 # room M: bed
+                (20.5, 16.1, 22.5, H - T), (24.3, 12.0, W - T, 14.5)):    # room N: desk, cabinet
+        cv.rect(*box)
+    cv.circle(21.5, 15.7, 0.25)                                           # room N: chair
+    cv.polygon(box_outline(23.0, 9.9, 0.9, 0.6, 0.5))                      # room M: a turned crate
+    start = (1.0 + cv.margin, 8.5 + cv.margin)     # world metres (the margin added)
+    keep = [(1.0, 8.5, 0.9), (5.525, 1.0, 0.6)] + [(x, y, 0.6) for x, y in slits]
+    keep += [(xr - 0.7, y, 0.6) for y in (3.025, 8.525, 14.025)]
+    # A 1 m path winds from the start round the hall (south and north of it) past every door.
+    route = ((1.0, 8.5), (2.0, 4.0), (2.5, 0.85), (9.0, 0.85), (12.0, 3.5), (17.35, 3.025), (14.5, 6.0),
+             (17.35, 8.525), (15.5, 11.0), (17.35, 14.025), (16.0, 16.2), (10.0, 16.2), (5.0, 13.5),
+             (1.0, 8.5))
+    for a, b in zip(route[:-1], route[1:]):
+        steps = int(np.ceil(np.hypot(*np.subtract(b, a)) / 0.2)) + 1
+        keep += [(*np.add(a, f * np.subtract(b, a)), 0.5) for f in np.linspace(0, 1, steps)]
+    hall = np.zeros_like(walls)                     # no rocks in the hall: solid while packing
+    cv.polygon(inner, 1, hall.view(np.uint8))
+    hall &= cv.img == FREE
+    cv.img[hall] = OCCUPIED
+    for sizes in ((0.4, 1.1), (0.2, 0.45)):         # boulders, then stones in the holes they leave
+        pack_rocks(cv, rng, (T, T, xr - 0.3, H - T), (0.45, 0.8), sizes, start, keep)
+    cv.img[hall] = FREE
+    return _finish(cv, "cluttered", (1.0, 8.5), 0.0, 8, rng, support=walls)
+
+
 def warehouse(rows=1700, cols=1000, seed=0):
     """A rows x cols map at 0.05 m (default 85 x 50 m) for load-time benchmarks: rack rows,
     pillars, a loading dock with pallets, and unknown (205) blocks.  Returns (image, meta)."""
@@ -700,7 +765,8 @@ def warehouse(rows=1700, cols=1000, seed=0):
     return _finish(cv, "warehouse", (W / 2, dock / 2), math.pi / 2, 10, rng)
 
 
-WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena, "garden": garden, "doors": doors}
+WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena, "garden": garden, "doors": doors,
+          "cluttered": cluttered}
 
 
 def main(argv=None):
