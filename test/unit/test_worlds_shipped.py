@@ -1,4 +1,5 @@
 """The shipped worlds: load, sizes and tag counts as promised, start valid, regenerable."""
+import functools
 import math
 
 import numpy as np
@@ -14,6 +15,8 @@ SPEC = {  # name: (min width m, min height m, min tags)
     "arena": (15.0, 15.0, 4),
     "garden": (11.5, 9.5, 4),       # held-out worlds (bench-explore's HELD_OUT): 12 x 10 m
     "doors": (15.5, 10.5, 8),       # 16 x 11 m
+    "cluttered": (24.5, 16.5, 6),   # held out, issue 30: 25 x 17 m
+    "warehouse": (33.5, 48.5, 6),   # bench-explore's FULL=1 floor: 35 x 50 m, walls 0.3 m
 }
 BURGER_BAND_M = 0.105 + 0.05 * math.sqrt(2)    # the planner's inscribed band for the burger, 0.176 m
 
@@ -35,20 +38,46 @@ def test_shipped_world(name):
         assert reach[r, c] == start_label, (name, t.id)
 
 
-@pytest.mark.parametrize("name", ["garden", "doors"])
+@functools.lru_cache(maxsize=None)
+def generated(name):
+    """worldgen's (image, meta) of a shipped world, made once per test session (the cluttered
+    world's rock packing takes ~10 s)."""
+    return worldgen.WORLDS[name]()
+
+
+@pytest.mark.parametrize("name", ["garden", "doors", "cluttered"])
 def test_held_out_worlds_need_the_narrow_passages(name):
     # Every room is in reach of the burger's planner band (0.176 m: a 0.45 m door leaves
     # 0.45 - 2 * 0.176 = 0.10 m for the centre), and a robot needing over 0.45 m (a centre
     # clearance of 0.23 m: a door's middle pixel has 0.225 m) is shut out of whole rooms or rock fields.
-    image, meta = getattr(worldgen, name)()
+    image, meta = generated(name)
     assert worldgen.validate_world(image, meta, radius=BURGER_BAND_M) == []
     shut_out = worldgen.validate_world(image, meta, radius=0.23)
     assert any(p.startswith("unreachable free area") for p in shut_out), shut_out
 
 
-@pytest.mark.parametrize("name", ["maze", "house", "garden", "doors"])
+def test_cluttered_world_is_big_and_open_to_both_turtlebot3s():
+    # issue 30: >= 300 m^2 free; the waffle_pi's box (0.306 m wide, turning in place only where
+    # its 0.51 m disc fits) and the burger reach, on the navigator's lattice from the start,
+    # every room behind a 0.45 m door, the closet behind another, and the hall's far end
+    # (its only door is at the south end; the 0.3 m slits let neither robot through)
+    from turtlebot_recon.planning.lattice import LatticeSettings, lattice_cost_to_come
+    from turtlebot_recon.robot import load_robot
+    w = load_world("cluttered")
+    assert w.free.sum() * w.resolution ** 2 >= 300.0
+    inside = {"room S": (21.5, 4.5), "room M": (20.0, 8.0), "closet": (24.0, 7.5), "room N": (20.5, 13.5),
+              "hall N": (15.5, 15.0), "hall S": (6.5, 3.0)}
+    for name in ("turtlebot3_burger", "turtlebot3_waffle_pi"):
+        field = lattice_cost_to_come(w.occupancy(), w.resolution, w.origin, load_robot(name), w.start,
+                                     LatticeSettings())
+        for where, (x, y) in inside.items():     # building metres + the 0.5 m margin
+            assert np.isfinite(field[w.cell(x + 0.5, y + 0.5)]), (name, where)
+        assert np.isfinite(field).sum() * w.resolution ** 2 >= 250.0, name    # not only rooms and hall
+
+
+@pytest.mark.parametrize("name", ["maze", "house", "garden", "doors", "cluttered", "warehouse"])
 def test_worlds_are_regenerated_identically(tmp_path, name):
-    image, meta = getattr(worldgen, name)()
+    image, meta = generated(name)
     worldgen.write_world(tmp_path, name, image, meta)
     from turtlebot_recon.sim.world import WORLDS_DIR
     assert (tmp_path / f"{name}.pgm").read_bytes() == (WORLDS_DIR / f"{name}.pgm").read_bytes()

@@ -765,8 +765,14 @@ def warehouse(rows=1700, cols=1000, seed=0):
     return _finish(cv, "warehouse", (W / 2, dock / 2), math.pi / 2, 10, rng)
 
 
+def warehouse_floor():
+    """``warehouse`` at 50 x 35 m (1,302 m^2 free), the size of issue 30's real warehouse (1,280
+    m^2): the large open floor of bench-explore's FULL=1 sweep."""
+    return warehouse(rows=1000, cols=700)
+
+
 WORLDS = {"house": house, "maze": maze, "office": office, "arena": arena, "garden": garden, "doors": doors,
-          "cluttered": cluttered}
+          "cluttered": cluttered, "warehouse": warehouse_floor}
 
 
 def main(argv=None):
