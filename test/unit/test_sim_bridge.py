@@ -1,11 +1,11 @@
 """sim_bridge's ROS-free policy (sim/bridge.py): pacing to the rtf, rtf 0's wait for the next
-command, the footprint outline and the true path relative to the start."""
+command, the wall-time tally, the footprint outline and the true path relative to the start."""
 import math
 
 import pytest
 
 from turtlebot_recon.robot import load_robot
-from turtlebot_recon.sim.bridge import CommandSync, Pacer, footprint_outline, relative_to_start
+from turtlebot_recon.sim.bridge import CommandSync, Pacer, WallShares, footprint_outline, relative_to_start
 
 
 def test_pacer_holds_sim_time_to_rtf_times_wall_time():
@@ -36,6 +36,22 @@ def test_command_sync_waits_only_at_rtf_0_while_moving_on_an_old_command():
     assert sync.wait_for_s(6.2, 0.2, 0.0) == 1.0
     assert CommandSync(rtf=1.0, age_s=0.11, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
     assert CommandSync(rtf=0.0, age_s=0.0, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
+
+
+def test_wall_shares_per_sim_second_largest_first():
+    shares = WallShares()
+    assert shares.summary(10.0) == ""                 # nothing tallied yet
+    shares.add("physics", 0.05)
+    shares.add("wait", 0.3)
+    shares.add("physics", 0.05)
+    shares.add("publish", 0.1)
+    assert shares.summary(0.0) == ""                  # no sim time: no rate
+    # over 10 sim s: wait 0.3 s -> 30 ms per sim s, publish 10, physics 0.1 s -> 10;
+    # 50 ms of wall per sim s = 20x real time
+    line = shares.summary(10.0)
+    assert line.startswith("wall ms per sim s: wait 30.0, ")
+    assert "publish 10.0" in line and "physics 10.0" in line
+    assert line.endswith("(total 50.0 = 20.0x real time)")
 
 
 def test_footprint_outline_round_and_box():
