@@ -27,7 +27,9 @@ from turtlebot_recon.exploration.explorer import (CancelGoal, ExploreInputs, Exp
 from turtlebot_recon.exploration.frontiers import robot_cost_to_come
 from turtlebot_recon.exploration.goals import GoalBook, GoalBookSettings
 from turtlebot_recon.exploration.strategies import make_strategy
+from turtlebot_recon.exploration.tag_search import TagSearch, TagSearchSettings
 from turtlebot_recon.planning import INSCRIBED, CostmapSettings, dijkstra, make_costmap
+from turtlebot_recon.perception.tracker import Glimpse
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.planning.navigation import GOAL_UNREACHABLE
 
@@ -508,3 +510,35 @@ def test_robot_cost_to_come_starts_beside_a_wall_the_robot_brushes():
     np.testing.assert_array_equal(field, dijkstra(costmap, (5, 3), resolution=RES))
     # no passable cell within 0.1 m: nothing is reachable
     assert np.isinf(robot_cost_to_come(costmap, (5, 6), RES, 0.1)).all()
+
+
+def test_an_unconfirmed_tag_is_looked_at_before_the_next_frontier():
+    """Mission tags (seed 000's priority goal, every strategy): a tag seen but not confirmed is
+    looked at from in front of it while frontiers remain, not after the last one; confirmed,
+    the frontiers come back."""
+    waffle = load_robot("turtlebot3_waffle_pi")
+    log = []
+    ex = Explorer(ExplorerSettings(mission="tags"), FrontierSettings(), make_strategy("recon"),
+                  GoalBook(GoalBookSettings()), SUPERVISOR, waffle,
+                  log=lambda level, msg, *args: log.append(msg % args),
+                  tag_search=TagSearch(TagSearchSettings(), waffle.camera))
+    grid = strip()
+    occ = grid.data
+    occ[0, :] = occ[-1, :] = 100                               # walls along the strip
+    tag = Glimpse("tag36h11", 7, 2.0, 0.0, math.pi / 2, 0.0)   # on the south wall, facing north
+    ex.start(0.0, ROBOT)
+
+    def sent(t, unconfirmed):
+        a = ex.explore(ExploreInputs(t, ROBOT, grid, None, (), unconfirmed=unconfirmed))
+        b = ex.supervise(SuperviseInputs(t, ROBOT))
+        return [x for x in a.actions + b.actions if isinstance(x, SendGoal)]
+
+    goals = [g for i in range(5) for g in sent(i / 10, (tag,))]
+    assert goals and ex.frontiers, log
+    view = goals[-1]
+    assert math.dist(view.xy, (2.0, 1.0)) <= 0.6 + 1e-9      # tag_view_m in front, snapped
+    assert view.yaw == pytest.approx(math.atan2(0.0 - view.xy[1], 2.0 - view.xy[0]))
+    assert ex.book.active is None and ex.phase == "map"      # not the end-of-map tag search
+    later = [g for i in range(5, 30) for g in sent(i / 10, ())]  # confirmed: back to the frontiers
+    assert later and later[-1].yaw is None and ex.book.active is not None
+    assert later[-1].xy in [approx_xy(f.goal) for f in ex.frontiers]

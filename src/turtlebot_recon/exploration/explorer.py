@@ -473,7 +473,8 @@ class Explorer:
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
                       visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1,
-                      motion=Motion.of(self.robot, self.lattice, self.speed_mps))
+                      motion=Motion.of(self.robot, self.lattice, self.speed_mps),
+                      priority_goals=tuple((float(t.x), float(t.y)) for t in unconfirmed))
         # a goal is valid on any cell the robot can pass (it turns in place safely there: the
         # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
         # prefer goals further from walls where there is room
@@ -483,9 +484,11 @@ class Explorer:
         self.cycles += 1
         self._no_frontier = 0 if self.choice is not None else self._no_frontier + 1
         view = None
-        if self.search is not None and self._no_frontier >= SEARCH_AFTER_CYCLES \
-                and self.supervisor is not None and self.supervisor.state != "SPIN":
+        searching = self.search is not None and self.supervisor is not None and self.supervisor.state != "SPIN"
+        if searching and self._no_frontier >= SEARCH_AFTER_CYCLES:
             view = self._tag_view(ctx, unconfirmed, now)
+        elif searching and unconfirmed:
+            view = self._priority_tag(ctx, unconfirmed)
         self.goal_available = self.choice is not None or view is not None  # the supervisor's finish rule
         if not frontiers:
             self._log_throttled(10.0, now, DEBUG, "explorer: no frontier in the map (%d known cells)",
@@ -521,6 +524,16 @@ class Explorer:
                                 "of the walls seen, %d unconfirmed tags)", 100.0 * (search.seen_share or 0.0),
                                 len(unconfirmed))
         return view
+
+    def _priority_tag(self, ctx: Context, unconfirmed: Sequence) -> Optional[View]:
+        """Seed 000's priority goal, for every strategy: a tag seen but not confirmed is looked
+        at (from ``tag_view_m`` in front of it) before the next frontier, while the robot is
+        near it, instead of after the last frontier (a trip back across the building)."""
+        pursued = self.view if self.nav == "active" and self.view is not None else None
+        if pursued is not None and pursued.kind == "tag" \
+                and any((t.family, t.id) == pursued.targets for t in unconfirmed):
+            return pursued
+        return self.search.tag_view(ctx, unconfirmed, self.book.is_blacklisted)
 
     def _look(self, view: View, pose: tuple) -> None:
         """Drive to a tag search view unless it is the one pursued."""

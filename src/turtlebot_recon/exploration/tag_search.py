@@ -132,7 +132,7 @@ class TagSearch:
         unseen = self.unseen_walls(ctx)
         if pursued is not None and self._still_worth(pursued, ctx, unseen, unconfirmed):
             return pursued
-        view = self._tag_view(ctx, unconfirmed, blocked)
+        view = self.tag_view(ctx, unconfirmed, blocked)
         if view is not None:
             return view
         if self.seen_share >= self.s.seen_share_goal:
@@ -149,7 +149,9 @@ class TagSearch:
         return int(unseen[rows[ok], cols[ok]].sum()) * ctx.resolution >= self.s.min_gain_m
 
     # ------------------------------------------------------------------------ views
-    def _tag_view(self, ctx: Context, unconfirmed: Sequence[Glimpse], blocked) -> Optional[View]:
+    def tag_view(self, ctx: Context, unconfirmed: Sequence[Glimpse], blocked) -> Optional[View]:
+        """The view of the nearest unconfirmed tag (by path) not looked at TAG_LOOKS times yet,
+        from ``tag_view_m`` in front of it, or None."""
         best, best_cost = None, math.inf
         for t in unconfirmed:
             if self._tag_looks.get((t.family, t.id), 0) >= TAG_LOOKS:
