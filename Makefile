@@ -43,13 +43,16 @@ help:
 	@echo "                 cycle times -> output/bench/control.json, figures in output/bench/control/ (RUNS=N)"
 	@echo "make bench-nav   every controller over 30 start/goal pairs per world (house, office, maze) in the"
 	@echo "                 simulator, drifting odometry + localisation -> output/bench/nav.json (POSE=truth, PAIRS=N)"
-	@echo "make bench-explore  exploration strategies x worlds x seeds -> output/bench/explore.json, plots in"
-	@echo "                 output/bench/explore/; held-out worlds (garden, doors) reported apart (heldout_*)"
-	@echo "                 (QUICK=1 its small subset; STRATEGIES=recon,nearest WORLDS=house SEEDS=N"
-	@echo "                 JOBS=N ROBOT= ROBOTS=maze=... BUDGET=sim s for all | BUDGETS=house=600,..."
+	@echo "make bench-explore  recon and the oracle x worlds x 3 seeds, 2 at a time (<= 1 h) -> output/bench/explore.json,"
+	@echo "                 plots in output/bench/explore/, a copy in docs/results/ to commit; held-out rows (garden, doors,"
+	@echo "                 cluttered with the burger and the waffle_pi: 1 seed) reported apart (heldout_*)"
+	@echo "                 (FULL=1 3 seeds on the held-out rows and the warehouse, beyond the hour; BASELINES=1 adds the"
+	@echo "                 five baselines; QUICK=1 its small subset; STRATEGIES=recon,nearest WORLDS=house SEEDS=N"
+	@echo "                 JOBS=N ROBOT= ROBOTS=maze=...,cluttered=a+b BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
-	@echo "                 DRY_RUN=1 prints the plan only, SWEEP=name writes output/bench/name/ and name.json instead,"
-	@echo "                 LAUNCH_ARGS='controller:=dwa slam:=true' more explore_sim.launch arguments for every run)"
+	@echo "                 DRY_RUN=1 prints the plan and its estimated wall time, SWEEP=name writes output/bench/name/ and"
+	@echo "                 name.json instead, LAUNCH_ARGS='controller:=dwa slam:=true' more explore_sim.launch arguments"
+	@echo "                 for every run; TABLE=1 runs nothing: docs/benchmarks.md's table from the newest committed sweep)"
 
 $(APT_STAMP): tools/apt-packages.txt
 	@mkdir -p build
@@ -128,17 +131,19 @@ bench-slam: build
 	@$(ENV) python test/benchmarks/bench_slam.py $(if $(filter 0,$(LIVE)),,--live) $(if $(SEEDS),--seeds $(SEEDS)) \
 	  $(if $(RESUME),--resume) $(if $(DRIVE_S),--drive-s $(DRIVE_S))
 
-# The bench's own defaults (all six strategies and the oracle, the shipped, real and held-out
-# worlds, 3 seeds, half the cores, waffle_pi but the burger in the maze, garden and doors,
-# per-world budgets) apply unless a variable is given; QUICK=1 is its subset for iteration;
-# ROBOT and BUDGET only when set by the user (ROBOTS=maze=...,house=... per world).
+# The bench's own defaults (recon and the oracle, the shipped, real and held-out worlds, 3 seeds
+# but 1 on the held-out rows, 2 at a time, the waffle_pi but both TurtleBot 3s on cluttered,
+# budgets from the committed oracle times) apply unless a variable is given; QUICK=1 is its
+# subset for iteration; ROBOT and BUDGET only when set by the user (ROBOTS=maze=...,house=... per
+# world). Every sweep's json is copied to docs/results/ to be committed.
 bench-explore: build
 	@$(ENV) python test/benchmarks/bench_explore.py $(if $(QUICK),--quick) $(if $(STRATEGIES),--strategies $(STRATEGIES)) \
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(SEEDS),--seeds $(SEEDS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(filter command line environment,$(origin ROBOT)),--robot $(ROBOT)) \
 	  $(if $(filter command line environment,$(origin BUDGET)),--budget $(BUDGET)) \
 	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
-	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP)) $(if $(LAUNCH_ARGS),--launch-args "$(LAUNCH_ARGS)")
+	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP)) $(if $(LAUNCH_ARGS),--launch-args "$(LAUNCH_ARGS)") \
+	  $(if $(FULL),--full) $(if $(BASELINES),--baselines) $(if $(TABLE),--table) --copy-results
 
 slam-log: build
 	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }

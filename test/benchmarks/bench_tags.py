@@ -81,8 +81,8 @@ def missions(worlds: list, seeds: int, resume: bool) -> dict:
     import bench_explore
     # the exploration benchmark's budgets (per world) times MISSION_BUDGET_FACTOR: the search
     # after the lidar's frontiers must not be cut by a budget set for the lidar alone
-    plain = bench_explore.budgets_for({w: bench_explore.world_arg(w) for w in worlds},
-                                      argparse.Namespace(budgets="", budget=0.0))
+    plain = bench_explore.budgets_for(bench_explore.make_plan(",".join(worlds), "recon"),
+                                      sweeps=bench_explore.committed_sweeps())
     budgets = ",".join(f"{w}={MISSION_BUDGET_FACTOR * b:g}" for w, b in plain.items())
     argv = ["--mission", "tags", "--strategies", "recon", "--worlds", ",".join(worlds), "--seeds", str(seeds),
             "--jobs", "1", "--name", MISSION_SWEEP, "--budgets", budgets] + (["--resume"] if resume else [])

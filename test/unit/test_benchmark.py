@@ -274,3 +274,148 @@ def test_ratio_vs_oracle_max_rules():
     f = bm.figures(bm.aggregate(runs), runs)
     assert f["default_time99_ratio_vs_oracle_max"] is None and f["default_time99_never_worlds"] == 1
     assert "default_time99_ratio_vs_oracle_max" not in bm.figures(bm.aggregate(runs[:1]), runs[:1])
+
+
+# ---- issue 30: rows with two robots, time standing, the oracle's mean, committed sweeps, the plan
+
+def bench_explore():
+    """test/benchmarks/bench_explore.py, the sweep's planner (imported as bench-nav's test does)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import bench_explore as bx
+    return bx
+
+
+def timed(strategy, world, seed=0, t99=300.0, standing=None, goals=None, cov=0.995):
+    r = run(strategy, world, seed, t99=t99, cov=cov)
+    extra = {k: v for k, v in (("time_standing_s", standing), ("goals", goals)) if v is not None}
+    return bm.Run(r.strategy, r.world, r.seed, r.status, {**r.report, **extra}, r.series)
+
+
+def test_two_robots_in_one_world_are_two_rows_with_their_own_figures():
+    runs = [timed("recon", "cluttered_burger", t99=1500.0, standing=90.0, goals=40, cov=0.991),
+            timed("oracle", "cluttered_burger", t99=1250.0, standing=60.0),
+            timed("recon", "cluttered_waffle_pi", t99=None, cov=0.70, goals=150),
+            timed("oracle", "cluttered_waffle_pi", t99=1400.0, standing=50.0),
+            timed("recon", "house", t99=440.0, standing=30.0, goals=20),
+            timed("oracle", "house", t99=400.0, standing=30.0)]
+    f = bm.figures(bm.aggregate(runs), runs, held_out=["cluttered_burger", "cluttered_waffle_pi"])
+    assert f["heldout_worlds"] == ["cluttered_burger", "cluttered_waffle_pi"] and f["tuning_worlds"] == ["house"]
+    assert f["time99_s_recon_cluttered_burger"] == 1500.0 and f["time99_s_recon_cluttered_waffle_pi"] is None
+    assert f["default_time99_ratio_vs_oracle_cluttered_burger"] == pytest.approx(1.2)
+    assert f["heldout_default_time99_ratio_vs_oracle_max"] is None           # the waffle_pi never got there
+    assert f["heldout_default_min_coverage"] == 0.70 and f["default_min_coverage"] == 0.995
+    assert f["heldout_default_standing_ratio_vs_oracle_max"] == pytest.approx(1.5)  # its waffle_pi runs lack the key
+    assert f["goals_median_cluttered_waffle_pi"] == 150 and f["goals_median_house"] == 20
+    assert f["default_time99_ratio_vs_oracle_mean"] == pytest.approx(1.1)
+    json.dumps(f, allow_nan=False)
+
+
+def test_oracle_mean_and_max_over_worlds():
+    runs = [timed("recon", "a", t99=120.0), timed("oracle", "a", t99=100.0),
+            timed("recon", "b", t99=150.0), timed("oracle", "b", t99=100.0)]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["default_time99_ratio_vs_oracle_max"] == pytest.approx(1.5)
+    assert f["default_time99_ratio_vs_oracle_mean"] == pytest.approx(1.35)
+
+
+def test_a_missing_standing_key_is_missing_not_zero():
+    # one recon seed from before time_standing_s: the median is over the two that have it;
+    # the oracle's runs have none at all: no ratio (null), not 0 or inf
+    recon = [timed("recon", "house", 0, standing=40.0), timed("recon", "house", 1),
+             timed("recon", "house", 2, standing=60.0)]
+    g = bm.summarise(recon)
+    assert g.standing_s == 50.0
+    runs = recon + [timed("oracle", "house", n) for n in range(3)]
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["time_standing_s_recon_house"] == 50.0 and f["time_standing_s_oracle_house"] is None
+    assert f["default_standing_ratio_vs_oracle_house"] is None
+    assert f["default_standing_ratio_vs_oracle_max"] is None
+
+
+def test_committed_baselines_stand_in_where_the_sweep_ran_none(tmp_path):
+    bx = bench_explore()
+    old = [run("recon", "house", t99=500.0), run("nearest", "house", t99=400.0), run("density", "house", t99=600.0),
+           run("nearest", "maze", t99=None), run("recon", "maze", t99=900.0)]
+    committed = {**bm.figures(bm.aggregate(old), old), "commit": "abc1234", "date": "2026-12-04T10:00:00Z"}
+    newer_no_baselines = {"time99_s_oracle_house": 350.0, "commit": "def5678", "date": "2026-12-05T10:00:00Z"}
+    (tmp_path / "explore-2026-12-04-abc1234.json").write_text(json.dumps(committed))
+    (tmp_path / "explore-2026-12-05-def5678.json").write_text(json.dumps(newer_no_baselines))
+    sweeps = bx.newest_first(sorted(tmp_path.glob("*.json")))
+    assert [p.name for p, _ in sweeps] == ["explore-2026-12-05-def5678.json", "explore-2026-12-04-abc1234.json"]
+    path, data, groups = bx.baseline_sweep(sweeps)             # the newest with baselines
+    assert path.name == "explore-2026-12-04-abc1234.json" and data["commit"] == "abc1234"
+    assert groups[("nearest", "house")].time_s[99] == 400.0 and groups[("nearest", "maze")].time_s[99] == INF
+    assert ("recon", "house") not in groups                   # only baselines stand in
+    now = [run("recon", "house", t99=360.0), run("oracle", "house", t99=300.0), run("recon", "maze", t99=800.0),
+           run("recon", "office", t99=1000.0), run("nearest", "office", t99=800.0)]
+    f = bm.figures(bm.aggregate(now), now, baselines=groups)
+    assert f["time99_ratio_vs_best_baseline_house"] == pytest.approx(360.0 / 400.0)
+    assert f["time99_ratio_vs_best_baseline_maze"] == 0.0     # only recon got there
+    assert f["time99_ratio_vs_best_baseline_office"] == pytest.approx(1.25)    # the sweep's own baseline
+    assert f["baseline_worlds_committed"] == ["house", "maze"]
+    assert "time99_s_nearest_house" not in f                  # the per-group keys are this sweep's
+    assert f["default_time99_ratio_vs_best_baseline"] == pytest.approx(1.25)
+
+
+def test_default_plan_and_full_plan():
+    bx = bench_explore()
+    plan = bx.make_plan()
+    assert plan.strategies == ["recon", "oracle"]
+    assert list(plan.rows)[:6] == ["house", "maze", "office", "arena", "depot", "tb3_sandbox"]
+    assert plan.rows["cluttered_burger"] == ("cluttered", "turtlebot3_burger")
+    assert plan.rows["cluttered_waffle_pi"] == ("cluttered", "turtlebot3_waffle_pi")
+    assert plan.rows["house"] == ("house", "turtlebot3_waffle_pi") and "warehouse" not in plan.rows
+    assert plan.held_out == ["garden", "doors", "cluttered_burger", "cluttered_waffle_pi"]
+    assert {r: plan.seeds[r] for r in plan.held_out} == dict.fromkeys(plan.held_out, bx.HELD_OUT_SEEDS)
+    assert plan.seeds["office"] == 3 and bx.HELD_OUT_SEEDS < 3
+    assert len(plan.runs()) == 2 * (6 * 3 + 4 * bx.HELD_OUT_SEEDS)
+    full = bx.make_plan(full=True, baselines=True)
+    assert full.rows["warehouse"] == ("warehouse", "turtlebot3_burger") and "warehouse" not in full.held_out
+    assert all(full.seeds[r] == 3 for r in full.rows)
+    assert full.strategies == ["recon", "nearest", "density", "gain_distance_heading", "sampled", "explore_lite",
+                               "oracle"]
+    one = bx.make_plan("cluttered", "oracle", 1, robot="turtlebot3_burger")     # the world keeps its row names
+    assert list(one.rows) == ["cluttered_burger"] and one.runs() == [("oracle", "cluttered_burger", 0)]
+    two = bx.make_plan("house", robots="house=turtlebot3_burger+turtlebot3_waffle_pi")
+    assert list(two.rows) == ["house_burger", "house_waffle_pi"] and two.seeds["house_burger"] == 3
+    with pytest.raises(ValueError):
+        bx.make_plan(strategies="recon,bogus")
+
+
+def test_budgets_follow_the_committed_oracle_times():
+    bx = bench_explore()
+    plan = bx.make_plan("house,tb3_sandbox,maze", "recon")
+    sweeps = [("new.json", {"time99_s_oracle_house": 400.0}),
+              ("old.json", {"time99_s_oracle_house": 900.0, "time99_s_oracle_tb3_sandbox": 42.0})]
+    b = bx.budgets_for(plan, sweeps=sweeps)
+    assert b["house"] == 1020.0                 # 2.5 x 400 = 1,000 -> whole minutes; the newest sweep's
+    assert b["tb3_sandbox"] == bm.BUDGET_MIN_S  # 105 s: the floor
+    assert b["maze"] == bx.WORLD_BUDGETS["maze"]    # no committed oracle time: the old rule
+    assert bx.budgets_for(plan, budgets="house=700", sweeps=sweeps)["house"] == 700.0
+    wall, at_budget = bx.estimate_wall_s(
+        bx.make_plan("house", "recon,oracle", 1), {"house": 1020.0}, jobs=2, startup_s=20.0,
+        sweeps=[("s.json", {"sim_time_s_recon_house": 500.0, "rtf_recon_house": 10.0, "full_stack_rtf_lidar": 5.0})])
+    assert at_budget == 1                       # the oracle's run: no sim time, its budget at rtf 5
+    assert wall == pytest.approx((500.0 / 10.0 + 20.0 + 1020.0 / 5.0 + 20.0) / 2)
+
+
+def test_results_name_sittings_and_table(tmp_path):
+    bx = bench_explore()
+    assert bx.results_name("explore", "abc1234+dirty", "2026-12-05") == "explore-2026-12-05-abc1234-dirty.json"
+    assert bx.results_name("p30", "abc1234", "2026-12-05") == "explore-2026-12-05-abc1234-p30.json"
+    assert bx.sittings_wall_s(tmp_path, 100.0, resume=False) == 100.0
+    assert bx.sittings_wall_s(tmp_path, 50.0, resume=True) == 150.0    # a --resume'd sweep adds its sittings
+    assert bx.sittings_wall_s(tmp_path, None, resume=False) == 150.0   # --report reads them
+    assert bx.sittings_wall_s(tmp_path, 70.0, resume=False) == 70.0    # a fresh sweep starts anew
+    runs = [timed("recon", "house", t99=440.0, standing=30.0, goals=21), timed("oracle", "house", t99=400.0, standing=20.0),
+            timed("nearest", "house", t99=500.0)]
+    data = {**bm.figures(bm.aggregate(runs), runs), "robot_house": "turtlebot3_waffle_pi", "wall_s": 1234.0}
+    doc = tmp_path / "benchmarks.md"
+    doc.write_text(f"# B\n\n{bx.TABLE_BEGIN}\nold\n{bx.TABLE_END}\n\nafter\n")
+    bx.write_table(doc, bx.markdown_table(data, "docs/results/x.json"))
+    text = doc.read_text()
+    assert "old" not in text and text.endswith(f"{bx.TABLE_END}\n\nafter\n")
+    row = next(ln for ln in text.splitlines() if ln.startswith("| house"))
+    assert row.split(" | ")[3:9] == ["440", "400", "1.10", "500 (nearest)", "0.88", "1.50"]

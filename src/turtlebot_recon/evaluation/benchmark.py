@@ -83,6 +83,12 @@ class Run:
         c = self.report.get("coverage_final") if self.ok else None
         return 0.0 if c is None else float(c)
 
+    def value(self, key: str) -> float:
+        """The report's number ``key`` (e.g. time_standing_s, goals); nan when the run failed or
+        its report has no such key (a run from before the key is missing, not 0)."""
+        v = self.report.get(key) if self.ok else None
+        return math.nan if v is None else float(v)
+
 
 def median(values) -> float:
     """Median of numbers that may be +inf (never reached); nan for none."""
@@ -118,6 +124,9 @@ class Group:
     collisions_max: int
     wall_s: float                 # median over ok runs
     rtf: float                    # median over ok runs
+    standing_s: float = math.nan  # time standing (speed under 0.05 m/s), median over ok runs with the key
+    goals: float = math.nan       # goals sent, median over ok runs with the key
+    sim_s: float = math.nan       # sim seconds the run lasted, median over ok runs
 
 
 def summarise(runs: list) -> Group:
@@ -125,7 +134,7 @@ def summarise(runs: list) -> Group:
     ok = [r for r in runs if r.ok]
 
     def ok_median(key):
-        return median(float(r.report[key]) for r in ok if r.report.get(key) is not None)
+        return median(v for v in (r.value(key) for r in ok) if not math.isnan(v))
 
     collisions = [int(r.report.get("collisions") or 0) for r in ok]
     cov = [r.coverage() for r in runs]
@@ -134,7 +143,8 @@ def summarise(runs: list) -> Group:
                  coverage_median=median(cov), coverage_min=min(cov),
                  distance_m=ok_median("distance_m"), distance99_m=median(r.distance_to(99) for r in runs),
                  collisions_sum=sum(collisions),
-                 collisions_max=max(collisions, default=0), wall_s=ok_median("wall_time_s"), rtf=ok_median("rtf"))
+                 collisions_max=max(collisions, default=0), wall_s=ok_median("wall_time_s"), rtf=ok_median("rtf"),
+                 standing_s=ok_median("time_standing_s"), goals=ok_median("goals"), sim_s=ok_median("sim_time_s"))
 
 
 def aggregate(runs: list) -> dict:
@@ -156,6 +166,46 @@ def versus_best_baseline(groups: dict, world: str, value, default: str = DEFAULT
     if mine is None or not others:
         return math.nan
     return ratio(value(mine), min(others))
+
+
+def has_baseline(groups: dict, world: str, default: str = DEFAULT_STRATEGY) -> bool:
+    """Whether a baseline (any strategy but ``default``, DEFAULT_STRATEGY and REFERENCE) ran in ``world``."""
+    return any(w == world and s not in (default, DEFAULT_STRATEGY, REFERENCE) for s, w in groups)
+
+
+def with_baselines(groups: dict, baselines: dict, default: str = DEFAULT_STRATEGY) -> dict:
+    """``groups`` plus, for each of its worlds where no baseline ran, the groups of ``baselines``
+    ({(strategy, world): Group}, e.g. a committed sweep's: ``sweep_groups``) in that world."""
+    worlds = {w for _, w in groups}
+    missing = {w for w in worlds if not has_baseline(groups, w, default)}
+    return {**groups, **{k: g for k, g in baselines.items() if k[1] in missing and k not in groups}}
+
+
+def sweep_groups(data: dict, strategies=STRATEGIES, default: str = DEFAULT_STRATEGY) -> dict:
+    """{(strategy, world): Group} of the baselines in a sweep's explore.json object ``data``
+    (``figures``' per-group keys; a null time or distance is "never"), for comparing with them."""
+    def number(key, never=math.inf):
+        v = data.get(key)
+        return never if v is None else float(v)
+
+    out = {}
+    for s in strategies:
+        if s in (default, DEFAULT_STRATEGY, REFERENCE):
+            continue
+        head = f"time99_s_{s}_"
+        for key in data:
+            if not key.startswith(head):
+                continue
+            w = key[len(head):]
+            out[(s, w)] = Group(
+                strategy=s, world=w, runs=int(number(f"runs_{s}_{w}", 0)), failed=int(number(f"failed_runs_{s}_{w}", 0)),
+                time_s={p: number(f"time{p}_s_{s}_{w}") for p in MILESTONES_PCT},
+                coverage_median=number(f"coverage_final_{s}_{w}", math.nan),
+                coverage_min=number(f"coverage_min_{s}_{w}", math.nan),
+                distance_m=number(f"distance_m_{s}_{w}", math.nan), distance99_m=number(f"distance99_m_{s}_{w}"),
+                collisions_sum=int(number(f"collisions_{s}_{w}", 0)), collisions_max=0,
+                wall_s=math.nan, rtf=number(f"rtf_{s}_{w}", math.nan))
+    return out
 
 
 def worst(ratios) -> float:
@@ -184,7 +234,10 @@ def headline(groups: dict, runs: list, worlds: list, default: str = DEFAULT_STRA
     point as the others) and default_distance99_ratio_vs_best_baseline_max (the same figure
     under the issue's name); default_time99_ratio_vs_oracle_max (per world where both the
     default and the REFERENCE ran: the default's median time to 99 % / the oracle's, then the
-    worst world; absent when the oracle ran in none).
+    worst world; absent when the oracle ran in none) and default_time99_ratio_vs_oracle_mean
+    (their mean over the worlds where it is defined; inf if any is);
+    default_standing_ratio_vs_oracle_max (the same for the median time standing,
+    time_standing_s; worlds where either side's runs lack the key are skipped).
     """
     chosen = set(worlds)
     mine = [r for r in runs if r.strategy == default and r.world in chosen]
@@ -204,10 +257,15 @@ def headline(groups: dict, runs: list, worlds: list, default: str = DEFAULT_STRA
                      for w in worlds if (default, w) in groups and (REFERENCE, w) in groups]
     if versus_oracle:
         out[f"default_time99_ratio_vs_{REFERENCE}_max"] = worst(versus_oracle)
+        defined = [v for v in versus_oracle if not math.isnan(v)]
+        out[f"default_time99_ratio_vs_{REFERENCE}_mean"] = float(np.mean(defined)) if defined else math.nan
+        out[f"default_standing_ratio_vs_{REFERENCE}_max"] = worst(
+            ratio(groups[(default, w)].standing_s, groups[(REFERENCE, w)].standing_s)
+            for w in worlds if (default, w) in groups and (REFERENCE, w) in groups)
     return {prefix + k: v for k, v in out.items()}
 
 
-def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY, held_out=()) -> dict:
+def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY, held_out=(), baselines=None) -> dict:
     """The flat explore.json object (without machine and commit); see the module docstring.
 
     The worlds of ``held_out`` are the check that the tuning did not overfit: the ``headline``
@@ -215,17 +273,27 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY, held_out=
     again over the held-out ones with the prefix "heldout_" (listed in heldout_worlds; those
     keys only when a held-out world ran). runs and failed_runs count every run.
 
+    ``baselines`` ({(strategy, world): Group}, a committed sweep's ``sweep_groups``) stand in for
+    the baselines of the worlds where none ran in this sweep, in every *_vs_best_baseline figure
+    (listed in baseline_worlds_committed); the per-group keys are this sweep's own.
+
     Per world: time{99,95}_ratio_vs_best_baseline_<w>, distance99_ratio_vs_best_baseline_<w>;
     where the REFERENCE (oracle) ran, oracle_time99_ratio_vs_best_baseline_<w> (what the
-    omniscient route reaches against the baselines) and default_time99_ratio_vs_oracle_<w>. Per
-    strategy and world: time90_s_, time95_s_, time99_s_ (median; null = never), coverage_final_
-    (median), coverage_min_, distance_m_ (whole run), distance99_m_ (null = never),
-    collisions_, failed_runs_<strategy>_<world>.
+    omniscient route reaches against the baselines), default_time99_ratio_vs_oracle_<w> and
+    default_standing_ratio_vs_oracle_<w>; goals_median_<w> (the default's goals sent, median).
+    Per strategy and world: time90_s_, time95_s_, time99_s_ (median; null = never),
+    coverage_final_ (median), coverage_min_, distance_m_ (whole run), distance99_m_ (null =
+    never), collisions_, time_standing_s_, goals_, sim_time_s_, rtf_ (medians over ok runs;
+    null where no run has the key), runs_, failed_runs_<strategy>_<world>.
     """
-    worlds = list(dict.fromkeys(w for _, w in groups))
+    own = groups
+    groups = with_baselines(own, baselines or {}, default)
+    worlds = list(dict.fromkeys(w for _, w in own))
     held = [w for w in worlds if w in set(held_out)]
     tuning = [w for w in worlds if w not in set(held_out)]
-    out = {"runs": len(runs), "failed_runs": sum(not r.ok for r in runs), "tuning_worlds": tuning}
+    out = {"runs": len(runs), "failed_runs": sum(not r.ok for r in runs), "tuning_worlds": tuning,
+           "baseline_worlds_committed": [w for w in worlds if not has_baseline(own, w, default)
+                                         and has_baseline(groups, w, default)]}
     out.update(headline(groups, runs, tuning, default))
     if held:
         out["heldout_worlds"] = held
@@ -242,13 +310,18 @@ def figures(groups: dict, runs: list, default: str = DEFAULT_STRATEGY, held_out=
             if (default, w) in groups:
                 out[f"default_time99_ratio_vs_{REFERENCE}_{w}"] = ratio(
                     groups[(default, w)].time_s[99], groups[(REFERENCE, w)].time_s[99])
-    for (s, w), g in groups.items():
+                out[f"default_standing_ratio_vs_{REFERENCE}_{w}"] = ratio(
+                    groups[(default, w)].standing_s, groups[(REFERENCE, w)].standing_s)
+        if (default, w) in groups:
+            out[f"goals_median_{w}"] = groups[(default, w)].goals
+    for (s, w), g in own.items():
         for pct in MILESTONES_PCT:
             out[f"time{pct}_s_{s}_{w}"] = g.time_s[pct]
         out.update({f"coverage_final_{s}_{w}": g.coverage_median, f"coverage_min_{s}_{w}": g.coverage_min,
                     f"distance_m_{s}_{w}": g.distance_m, f"distance99_m_{s}_{w}": g.distance99_m,
-                    f"collisions_{s}_{w}": g.collisions_sum,
-                    f"failed_runs_{s}_{w}": g.failed})
+                    f"collisions_{s}_{w}": g.collisions_sum, f"time_standing_s_{s}_{w}": g.standing_s,
+                    f"goals_{s}_{w}": g.goals, f"sim_time_s_{s}_{w}": g.sim_s, f"rtf_{s}_{w}": g.rtf,
+                    f"runs_{s}_{w}": g.runs, f"failed_runs_{s}_{w}": g.failed})
     return {k: _json(v) for k, v in out.items()}
 
 
