@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""Exploration benchmark (`make bench-explore`, issue 5 item 8): strategies x worlds x seeds.
+"""Exploration benchmark (`make bench-explore`, issue 5 item 8, issue 30 item 8): strategies x rows x seeds.
 
 Each run is `tools/launch ... explore_sim.launch` (what `make run` runs) headless (rtf:=0, lidar
 only: the camera is off, as the launch file's default) with its own ROS master port
 (ROS_MASTER_URI on 127.0.0.1), ROS_HOME (logs) and output directory
-output/bench/<name>/<world>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
-launch.log, run.json; --name, default explore: two sweeps in one tree at once need two names). Up to --jobs runs at a time (default: half the cores). A run is "ok" when
+output/bench/<name>/<row>/<strategy>/seed<N>/ (report.json, coverage.csv, map, plots,
+launch.log, run.json; --name, default explore: two sweeps in one tree at once need two names). Up to
+--jobs runs at a time (default JOBS, 2). A run is "ok" when
 the evaluator ended it and wrote report.json; one that exceeds its wall-clock limit is stopped
 (SIGINT, then SIGKILL) and recorded as "timeout"; one where a node died or no report appeared, as
 "failed" with tools/launch's one-line reason. Neither is hidden: the aggregation
@@ -535,7 +536,8 @@ def main(argv=None):
     p.add_argument("--robot", default="", help=f"for every world (default: {ROBOT}, WORLD_ROBOTS' worlds theirs)")
     p.add_argument("--robots", default="", help="per world, e.g. maze=turtlebot3_burger,"
                                                 "cluttered=turtlebot3_burger+turtlebot3_waffle_pi (wins over --robot)")
-    p.add_argument("--jobs", type=int, default=JOBS, help=f"launches at a time, each ~1 core at rtf:=0 (default {JOBS})")
+    p.add_argument("--jobs", type=int, default=JOBS,
+                   help=f"launches at a time, each ~1 core at rtf:=0 (default {JOBS})")
     p.add_argument("--budget", type=float, default=0.0, help="sim seconds for every row (0: the budget rules)")
     p.add_argument("--budgets", default="", help="per row or world, e.g. house=600,office=3000 (wins over --budget)")
     p.add_argument("--min-rtf", type=float, default=2.0, help="wall limit = startup + budget / this")
@@ -588,7 +590,8 @@ def main(argv=None):
     rows, strategies = list(plan.rows), plan.strategies
     seeds = sorted(set(plan.seeds.values()))
     args.seeds = seeds[0] if len(seeds) == 1 else max(seeds)
-    args.plan_line = (f"{'QUICK subset: ' if args.quick else ''}{'FULL: ' if args.full else ''}{', '.join(strategies)} on "
+    args.plan_line = (f"{'QUICK subset: ' if args.quick else ''}{'FULL: ' if args.full else ''}"
+                      f"{', '.join(strategies)} on "
                       + ", ".join(f"{r} ({plan.seeds[r]} seed{'s' if plan.seeds[r] > 1 else ''}"
                                   f"{', held out' if r in plan.held_out else ''})" for r in rows))
     runs_plan = plan.runs()

@@ -409,8 +409,8 @@ def test_results_name_sittings_and_table(tmp_path):
     assert bx.sittings_wall_s(tmp_path, 50.0, resume=True) == 150.0    # a --resume'd sweep adds its sittings
     assert bx.sittings_wall_s(tmp_path, None, resume=False) == 150.0   # --report reads them
     assert bx.sittings_wall_s(tmp_path, 70.0, resume=False) == 70.0    # a fresh sweep starts anew
-    runs = [timed("recon", "house", t99=440.0, standing=30.0, goals=21), timed("oracle", "house", t99=400.0, standing=20.0),
-            timed("nearest", "house", t99=500.0)]
+    runs = [timed("recon", "house", t99=440.0, standing=30.0, goals=21),
+            timed("oracle", "house", t99=400.0, standing=20.0), timed("nearest", "house", t99=500.0)]
     data = {**bm.figures(bm.aggregate(runs), runs), "robot_house": "turtlebot3_waffle_pi", "wall_s": 1234.0}
     doc = tmp_path / "benchmarks.md"
     doc.write_text(f"# B\n\n{bx.TABLE_BEGIN}\nold\n{bx.TABLE_END}\n\nafter\n")

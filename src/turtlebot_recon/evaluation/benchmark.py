@@ -198,7 +198,8 @@ def sweep_groups(data: dict, strategies=STRATEGIES, default: str = DEFAULT_STRAT
                 continue
             w = key[len(head):]
             out[(s, w)] = Group(
-                strategy=s, world=w, runs=int(number(f"runs_{s}_{w}", 0)), failed=int(number(f"failed_runs_{s}_{w}", 0)),
+                strategy=s, world=w, runs=int(number(f"runs_{s}_{w}", 0)),
+                failed=int(number(f"failed_runs_{s}_{w}", 0)),
                 time_s={p: number(f"time{p}_s_{s}_{w}") for p in MILESTONES_PCT},
                 coverage_median=number(f"coverage_final_{s}_{w}", math.nan),
                 coverage_min=number(f"coverage_min_{s}_{w}", math.nan),
