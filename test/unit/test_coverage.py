@@ -2,6 +2,7 @@
 sight ``_native.visible_cells`` against a plain-Python reference. Expected numbers are worked
 out in the comments; every world is 0.05 m per cell."""
 import math
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -12,6 +13,7 @@ from turtlebot_recon.evaluation import CoverageTracker, reachable_cells, reachab
 from turtlebot_recon.evaluation import coverage as coverage_module
 from turtlebot_recon.evaluation.coverage import free_at, lattice_points, map_values_at
 from turtlebot_recon.evaluation.metrics import map_cells_in_world
+from turtlebot_recon.robot import load_robot
 from turtlebot_recon.sim import load_world
 
 from conftest import ray_cells, room, write_world
@@ -20,7 +22,7 @@ from conftest import ray_cells, room, write_world
 visible_cells = partial(_native.visible_cells, beams=coverage_module.LIDAR_BEAMS)
 
 RES = 0.05
-BURGER_RADIUS_M = 0.105
+BURGER = load_robot("turtlebot3_burger")
 
 
 # ---------------------------------------------------------------- visible_cells (C++)
@@ -120,12 +122,12 @@ def carve(free, x0, y0, x1, y1):
 def test_a_room_is_all_in_f(room_world):
     # 4 x 3 m room: 80 x 60 = 4800 free cells, every one in sight of some viewpoint.
     world = load_world(room_world)
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     assert f.sum() == 4800
     assert np.array_equal(f, world.free)
     # The centre reaches the free cells more than 0.105 m from the walls: cell k (0-based from
     # a wall) has clearance (k + 0.5) * 0.05, > 0.105 from k = 2, so (80 - 4) x (60 - 4).
-    assert reachable_cells(world, BURGER_RADIUS_M).sum() == 76 * 56
+    assert reachable_cells(world, BURGER).sum() == 76 * 56
 
 
 def pocket_world(tmp_path, baffle):
@@ -158,13 +160,13 @@ def test_pocket_behind_a_narrow_gap_and_baffle_is_excluded(tmp_path):
     world = pocket_world(tmp_path, baffle=True)
     pocket, far = columns_beyond(world, 4.4), columns_beyond(world, 4.65)
     assert far.sum() == 420
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
-    assert not (reachable_cells(world, BURGER_RADIUS_M) & pocket).any()
+    f = reachable_free_space(world, BURGER, 3.5)
+    assert not (reachable_cells(world, BURGER) & pocket).any()
     assert not (f & far).any()
     assert np.array_equal(f[:, :82], world.free[:, :82])        # the room: all of it
     # A robot of radius 0.05 m fits through the slot and the channel (middle cells 0.075 m
     # clear), and drives round the baffle: the whole pocket is in F.
-    f_small = reachable_free_space(world, 0.05, 3.5)
+    f_small = reachable_free_space(world, replace(BURGER, radius_m=0.05), 3.5)
     assert np.array_equal(f_small & pocket, pocket)
 
 
@@ -174,41 +176,43 @@ def test_pocket_seen_through_a_narrow_gap_counts_where_visible(tmp_path):
     # 61, col 99) are 30 rows off the slot over 12 columns, a slope the slot (<= 2/5) never
     # lets through.
     world = pocket_world(tmp_path, baffle=False)
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     pocket = columns_beyond(world, 4.4)
     assert world.free[32, 88] and f[32, 88]
     assert world.free[2, 99] and not f[2, 99]
     assert world.free[61, 99] and not f[61, 99]
     assert 0 < (f & pocket).sum() < pocket.sum()
-    assert not (reachable_cells(world, BURGER_RADIUS_M) & pocket).any()
+    assert not (reachable_cells(world, BURGER) & pocket).any()
 
 
 def test_cells_beyond_sensor_range_are_excluded(tmp_path):
     # A 2 x 2 m room (x, y 0.1..2.1, cols and rows 2..41), a 0.1 m wall (cols 42, 43) and
     # through it a dead-end corridor 0.15 m wide (rows 21..23, y 1.05..1.2) to x = 5.1 (col
-    # 101). The burger cannot enter (middle row clearance 0.075 m < 0.105). The reachable cell
-    # nearest the corridor is (22, 40), x = 2.025: its nearest solid cells (20, 42) and
-    # (24, 42) are sqrt(8) cells away, 0.141 - 0.025 = 0.116 m > 0.105; (22, 41) has only
-    # sqrt(5) cells, 0.087 m. With a 1.0 m range no viewpoint reaches a corridor cell centred
-    # beyond x = 3.025: cols 61..101, 41 x 3 = 123 cells, are out of F. With a 5 m range the
-    # whole corridor (cols 42..101, 60 x 3 = 180 cells) is in sight along its axis.
+    # 101). The burger cannot enter: its disc, 0.105 m, keeps the lattice's margin_m (0.02 m)
+    # off every obstacle cell's square, 0.125 m, and the middle row has 0.075 m. Cell (22, 40)
+    # is 1.5 cells in x and y from the nearest corners of (20, 42) and (24, 42), 0.106 m;
+    # (22, 39) is sqrt(0.125^2 + 0.075^2) = 0.146 m from them: the reachable cells end at col
+    # 39. F's viewpoint in the block of cols 35..39, rows 20..24 is its centre (22, 37), x =
+    # 1.875: with a 1.0 m range (20 cells) it sees the corridor's axis to col 57, so cols
+    # 58..101, 44 x 3 = 132 cells, are out of F. With a 5 m range the whole corridor (cols
+    # 42..101, 60 x 3 = 180 cells) is in sight along its axis.
     free = np.zeros((44, 104), bool)
     carve(free, 0.1, 0.1, 2.1, 2.1)
     carve(free, 2.0, 1.05, 5.1, 1.2)
     world = load_world(write_world(tmp_path, "corridor", free, start=[1.0, 1.0, 0.0]))
-    reach_cols = np.nonzero(reachable_cells(world, BURGER_RADIUS_M))[1]
-    assert reach_cols.max() == 40
+    reach_cols = np.nonzero(reachable_cells(world, BURGER))[1]
+    assert reach_cols.max() == 39
     corridor = world.free.copy()
     corridor[:, :42] = False
     assert corridor.sum() == 180
     beyond = corridor.copy()
-    beyond[:, :61] = False
-    assert beyond.sum() == 123
-    near = reachable_free_space(world, BURGER_RADIUS_M, 1.0)
+    beyond[:, :58] = False
+    assert beyond.sum() == 132
+    near = reachable_free_space(world, BURGER, 1.0)
     assert not (near & beyond).any()
-    assert near[22, 42:60].all()                     # its mouth is in range and in sight
+    assert near[22, 42:58].all()                     # its mouth is in range and in sight
     assert np.array_equal(near[:, :42], world.free[:, :42])   # the room itself
-    far = reachable_free_space(world, BURGER_RADIUS_M, 5.0)
+    far = reachable_free_space(world, BURGER, 5.0)
     assert np.array_equal(far & corridor, corridor)
 
 
@@ -229,12 +233,12 @@ def test_start_too_close_to_a_wall_uses_the_nearest_roomy_cell(tmp_path):
     # nearest roomy cell is k = 2 (clearance 0.125 > 0.105), 0.1 m away (<= 0.105): its
     # component, the room's 36 x 36 roomy cells (2 m = 40 cells, less 2 per side), is used.
     world = load_world(write_world(tmp_path, "tight", room(2.0, 2.0), start=[0.125, 1.0, 0.0]))
-    assert reachable_cells(world, BURGER_RADIUS_M).sum() == 36 * 36
+    assert reachable_cells(world, BURGER).sum() == 36 * 36
     # A corridor 0.3 m wide has no cell with more than 0.15 m of clearance: no robot of radius
     # 0.2 m fits anywhere.
     narrow = load_world(write_world(tmp_path, "narrow", room(2.0, 0.3), start=[1.0, 0.25, 0.0]))
     with pytest.raises(ValueError, match="start"):
-        reachable_cells(narrow, 0.2)
+        reachable_cells(narrow, replace(BURGER, radius_m=0.2))
 
 
 # ---------------------------------------------------------------- coverage tracker
@@ -256,7 +260,7 @@ def world_grid_as_robot_map(world, map_origin, shape, map_to_world, known=None):
 
 def test_perfect_map_covers_f_and_half_a_map_covers_half(room_world):
     world = load_world(room_world)          # start (1.0, 1.5, 0): map frame = world - (1, 1.5)
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     tracker = CoverageTracker(world, f)
     assert tracker.cells == 4800 and tracker.area_m2 == pytest.approx(12.0)
     occ = world.occupancy()      # world grid, shifted origin
@@ -273,13 +277,14 @@ def test_perfect_map_covers_f_and_half_a_map_covers_half(room_world):
     assert tracker.update(2.5, occ[:, 42:], RES, (origin[0] + 42 * RES, origin[1])) == 0.5
     # Likewise in y: the map's rows from 32 (y >= 1.6) hold free rows 32..61, 30 of 60.
     assert tracker.update(2.75, occ[32:, :], RES, (origin[0], origin[1] + 32 * RES)) == 0.5
-    # "Free" is 0..25: 25 counts, 26 and unknown do not.
+    # "Free" is 0..25: 25 counts; 26 only on the walls' faces (known counts there: the ring
+    # of 80 x 60 - 78 x 58 = 276 cells beside the walls, 0.0575); unknown nowhere.
     assert tracker.update(3.0, np.full_like(occ, 25), RES, origin) == 1.0
-    assert tracker.update(4.0, np.full_like(occ, 26), RES, origin) == 0.0
+    assert tracker.update(4.0, np.full_like(occ, 26), RES, origin) == 276 / 4800
     assert tracker.update(5.0, np.full_like(occ, -1), RES, origin) == 0.0
     t, frac = tracker.series
     assert t.tolist() == [0.0, 1.0, 2.0, 2.5, 2.75, 3.0, 4.0, 5.0]
-    assert frac.tolist() == [1.0, 0.5, 0.5, 0.5, 0.5, 1.0, 0.0, 0.0]
+    assert frac.tolist() == [1.0, 0.5, 0.5, 0.5, 0.5, 1.0, 276 / 4800, 0.0]
     assert tracker.final == 0.0
 
 
@@ -290,7 +295,7 @@ def test_rotated_start_pose(tmp_path):
     # world cell centres (mx + 1.5 = -0.5 + (j + 0.5) 0.05, 1 - my = 5 - (i + 0.5) 0.05).
     start = (1.0, 1.5, math.pi / 2)
     world = load_world(write_world(tmp_path, "room", room(4.0, 3.0), start=list(start)))
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     tracker = CoverageTracker(world, f, map_to_world=start)
     origin, shape = (-2.0, -4.0), (100, 80)
     occ = world_grid_as_robot_map(world, origin, shape, start)
@@ -312,7 +317,7 @@ def test_a_perfect_map_on_a_grid_shifted_half_a_cell_covers_f(tmp_path, monkeypa
     # robot cells, two of which straddle the wall; its corner samples find the free ones.
     start = (1.025, 1.525, 0.0)
     world = load_world(write_world(tmp_path, "room", room(4.0, 3.0), start=list(start)))
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     origin = (world.origin[0] - start[0] - RES / 2, world.origin[1] - start[1] - RES / 2)
     rows, cols = world.free.shape
     all_free = np.zeros((rows + 1, cols + 1), bool)        # robot cell (i, j) overlaps world
@@ -321,17 +326,23 @@ def test_a_perfect_map_on_a_grid_shifted_half_a_cell_covers_f(tmp_path, monkeypa
     all_free[:] = padded[:-1, :-1] & padded[1:, :-1] & padded[:-1, 1:] & padded[1:, 1:]
     occ = np.where(all_free, 0, 100).astype(np.int8)
     assert CoverageTracker(world, f).update(0.0, occ, RES, origin) == 1.0
-    # Sampling the centres only (DESIGN §6 as written) misses a wall-face cell whenever the
-    # robot cell it picks straddles the wall: the room's east and north faces.
+    # Read as free only, the faces need the corner samples: a wall-face cell's centre picks a
+    # robot cell that straddles the wall (occupied) on the room's east and north faces.
+    free_only = CoverageTracker(world, f)
+    free_only.face[:] = False
+    assert free_only.update(0.0, occ, RES, origin) == 1.0
     monkeypatch.setattr(coverage_module, "SAMPLE_OFFSETS", ((0.0, 0.0),))
-    assert CoverageTracker(world, f).update(0.0, occ, RES, origin) < 0.97
+    centres = CoverageTracker(world, f)
+    assert centres.update(0.0, occ, RES, origin) == 1.0        # the wall-face rule: known
+    centres.face[:] = False
+    assert centres.update(0.0, occ, RES, origin) < 0.97
 
 
 def test_time_to_thresholds(room_world):
     # Maps knowing the first k of the room's 80 free columns cover k / 80:
     # k = 20 -> 0.25, 72 -> 0.9, 76 -> 0.95, 79 -> 0.9875 (< 0.99), 80 -> 1.0.
     world = load_world(room_world)
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     tracker = CoverageTracker(world, f)
     assert tracker.final is None and tracker.time_to(0.9) is None
     origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
@@ -374,7 +385,7 @@ def test_seen_counts_known_and_occupied_f_cells(room_world):
     # The room's F: 80 x 60 = 4800 cells, free columns 2..81 of the world grid. A perfect map
     # (the world grid, origin shifted by the start (1, 1.5)) knows all of F, none occupied.
     world = load_world(room_world)
-    tracker = CoverageTracker(world, reachable_free_space(world, BURGER_RADIUS_M, 3.5))
+    tracker = CoverageTracker(world, reachable_free_space(world, BURGER, 3.5))
     occ = world.occupancy()
     origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
     assert tracker.seen(occ, RES, origin) == (1.0, 0.0)
@@ -400,11 +411,105 @@ def test_a_map_laid_off_the_start_frame_is_covered_once_aligned(room_world):
     frame (a SLAM map's gauge): read in the start frame it covers far from all of F; with the
     rigid motion that takes its frame onto the start frame (``alignment``), all of it."""
     world = load_world(room_world)                      # start (1.0, 1.5, 0)
-    f = reachable_free_space(world, BURGER_RADIUS_M, 3.5)
+    f = reachable_free_space(world, BURGER, 3.5)
     tracker = CoverageTracker(world, f)
     offset = (0.3, -0.2, 0.1)                            # the map frame, in the start frame
     map_to_world = (1.0 + 0.3, 1.5 - 0.2, 0.1)           # start (+) offset (start yaw 0)
     origin, shape = (-3.0, -3.0), (140, 160)
     occ = world_grid_as_robot_map(world, origin, shape, map_to_world)
-    assert tracker.covered(occ, RES, origin).mean() < 0.9
+    assert tracker.covered(occ, RES, origin).mean() < 0.95    # the faces read known either way
     assert tracker.covered(occ, RES, origin, alignment=offset).mean() > 0.99
+
+
+# ---------------------------------------------------------------- the robot's footprint (DESIGN §6)
+
+def footprint_world(tmp_path):
+    """Room A (x, y 0.1..3.1, the start at (1.0, 1.5)); east of it, through a 0.2 m wall, a
+    0.4 m door (y 1.3..1.7) into room B (x 3.3..8.3, y 0.1..3.1), whose east end lies 3.7-5 m
+    beyond the door; north of A, through its wall, a 0.4 m corridor (x 0.6..1.0) to y 4.3,
+    turning east at y 3.9..4.3 to room C (x 4.5..6.0, y 3.5..5.3)."""
+    free = np.zeros((110, 170), bool)
+    carve(free, 0.1, 0.1, 3.1, 3.1)
+    carve(free, 3.0, 1.3, 3.4, 1.7)
+    carve(free, 3.3, 0.1, 8.3, 3.1)
+    carve(free, 0.6, 3.0, 1.0, 4.3)
+    carve(free, 0.6, 3.9, 4.5, 4.3)
+    carve(free, 4.5, 3.5, 6.0, 5.3)
+    return load_world(write_world(tmp_path, "footprint", free, start=[1.0, 1.5, 0.0]))
+
+
+def test_a_box_robots_f_follows_its_box_and_its_turning_disc(tmp_path):
+    world = footprint_world(tmp_path)
+    xs = world.origin[0] + (np.arange(world.free.shape[1]) + 0.5) * RES
+    ys = world.origin[1] + (np.arange(world.free.shape[0]) + 0.5) * RES
+    room_b_east = world.free & (xs > 6.8)[None, :] & (ys < 3.1)[:, None]    # 3.4+ m past the door
+    room_c = world.free & (xs > 4.5)[None, :] & (ys > 3.5)[:, None]
+    assert room_b_east.sum() == 30 * 60 and room_c.sum() == 30 * 36
+    waffle = load_robot("turtlebot3_waffle_pi")
+    # The waffle_pi's box (0.306 m wide, 0.02 m margin each side) drives straight through the
+    # 0.4 m door and turns in room B: it sees B's east end, 3.4-5 m from the door.
+    f = reachable_free_space(world, waffle, 3.5)
+    assert np.array_equal(f & room_b_east, room_b_east)
+    # A disc as large as its turning disc (0.257 m) does not pass the door: the disc model
+    # lost B's east end.
+    disc = replace(waffle, footprint_length_m=0.0, footprint_width_m=0.0, footprint_offset_x_m=0.0)
+    assert not (reachable_free_space(world, disc, 3.5) & room_b_east).any()
+    # At the corridor's bend the box cannot turn (its turning disc needs 0.53 m): it never
+    # reaches the east leg, and room C, 3.5 m on from the bend, is out of its sight. The
+    # burger's disc turns there and sees all of C.
+    assert not (reachable_cells(world, waffle) & (ys > 3.9)[:, None] & (xs > 1.2)[None, :]).any()
+    assert not (f & room_c).any()
+    assert np.array_equal(reachable_free_space(world, BURGER, 3.5) & room_c, room_c)
+
+
+def test_coarse_to_fine_viewpoints_give_the_f_of_all_viewpoints(tmp_path):
+    # visible_free_space casts from a subset of the viewpoints (those that can still add a
+    # cell); on a room strewn with random blocks F must equal the union over all of them.
+    rng = np.random.default_rng(3)
+    free = room(8.0, 6.0)
+    for _ in range(60):
+        r, c = rng.integers(4, free.shape[0] - 8), rng.integers(4, free.shape[1] - 8)
+        free[r:r + rng.integers(1, 8), c:c + rng.integers(1, 8)] = False
+    world = load_world(write_world(tmp_path, "blocks", free, start=[0.5, 0.5, 0.0]))
+    for sensor_m in (1.0, 3.5):
+        reach = reachable_cells(world, BURGER)
+        points = lattice_points(reach, 5)
+        every = visible_cells(world.solid.astype(np.uint8), points, sensor_m / RES) & world.free
+        got = coverage_module.visible_free_space(world, reach, sensor_m)
+        assert got.sum() > 0.5 * world.free.sum()
+        assert np.array_equal(got, every)
+
+
+# ---------------------------------------------------------------- the wall-face rule (DESIGN §6)
+
+def test_wall_face_cells_count_when_known_the_others_when_free(room_world):
+    # The 4 x 3 m room's F: 80 x 60 = 4800 cells; its wall faces, the cells within one cell of
+    # a wall, are the outer ring: 4800 - 78 x 58 = 276; the next ring 78 x 58 - 76 x 56 = 268.
+    world = load_world(room_world)
+    tracker = CoverageTracker(world, reachable_free_space(world, BURGER, 3.5))
+    assert tracker.face.sum() == 276
+    assert coverage_module.wall_face(world).sum() == 276
+    occ = world.occupancy()
+    origin = (world.origin[0] - 1.0, world.origin[1] - 1.5)
+    ring = np.zeros(occ.shape, bool)
+    ring[2:62, 2:82] = True
+    ring[3:61, 3:81] = False
+    second = np.zeros(occ.shape, bool)
+    second[3:61, 3:81] = True
+    second[4:60, 4:80] = False
+    # Walls drawn a cell thick towards the room (the faces read occupied): still all covered.
+    thick = occ.copy()
+    thick[ring] = 100
+    assert tracker.update(0.0, thick, RES, origin) == 1.0
+    # Faces never observed (unknown): not covered.
+    blind = occ.copy()
+    blind[ring] = -1
+    assert tracker.update(1.0, blind, RES, origin) == (4800 - 276) / 4800
+    # Walls drawn two cells thick: the second ring is not on a face, and reads occupied.
+    thicker = thick.copy()
+    thicker[second] = 100
+    assert tracker.update(2.0, thicker, RES, origin) == (4800 - 268) / 4800
+    # Away from the walls a cell the map marks occupied is not covered: a column of 58.
+    wrong = occ.copy()
+    wrong[3:61, 40] = 100
+    assert tracker.update(3.0, wrong, RES, origin) == (4800 - 58) / 4800

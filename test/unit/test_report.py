@@ -12,6 +12,7 @@ from turtlebot_recon.evaluation import (CoverageTracker, plot_coverage, plot_map
                                         write_report)
 from turtlebot_recon.evaluation import report as report_module
 from turtlebot_recon.evaluation.trajectory_metrics import read_tum
+from turtlebot_recon.evaluation.metrics import standing
 from turtlebot_recon.evaluation.evaluator import (RUN_FILES, EvaluatorSettings, FinalMap, RunLog, run_report,
                                                   summary_line, write_run)
 from turtlebot_recon.evaluation.report import REPORT_KEYS, full_report, map_figure_size_px, markdown
@@ -195,7 +196,7 @@ def run(room_world):
     final map: the world grid with column 42 of the room marked occupied and column 43 unknown."""
     world = load_world(room_world)
     robot = load_robot("turtlebot3_burger")
-    coverage = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
+    coverage = CoverageTracker(world, reachable_free_space(world, robot, robot.lidar.range_max_m))
     log = RunLog(world.start, 0.02)
     log.truth(9.0, 1.0, 1.5)
     assert log.start_clock(10.0) and not log.start_clock(11.0)
@@ -248,7 +249,10 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
         "ate_odometry_m": pytest.approx(0.035355, abs=1e-6),   # no SLAM: the odometry is the estimate
         "distance_to_99_m": 2.0,          # along the kept points until t = 3 s: 1 + 1
-        "F_cells": 4800, "F_m2": 12.0, "F_robot_radius_m": 0.105, "goals": 2, "ate_samples": 2,
+        # from the clock's start (t = 10) to 99 % (t = 13): 0.01 m/s from t = 10 to 11 stands,
+        # before any move (no stop)
+        "time_standing_s": 1.0, "stops": 0,
+        "F_cells": 4800, "F_m2": 12.0, "goals": 2, "ate_samples": 2,
         "sim_start_s": 10.0, "map": "/runs/x/map.yaml", "collisions_at": [(1.0, 1.0, 3.5)],
     }
     assert "room · turtlebot3_burger · recon | coverage 100.0 % (90 % at 3 s" in summary_line(report)
@@ -311,7 +315,7 @@ def test_write_run_writes_every_file_before_report_json(run, tmp_path, monkeypat
     assert json.loads(json_path.read_text()) == full_report(report)
     np.testing.assert_allclose(np.loadtxt(out / "path.csv", delimiter=",", skiprows=1), log.path_in_map(), atol=1e-3)
     # No final map and no coverage sample: no map.png, no coverage.png; report.json still last.
-    empty = CoverageTracker(world, reachable_free_space(world, robot.radius_m, robot.lidar.range_max_m))
+    empty = CoverageTracker(world, reachable_free_space(world, robot, robot.lidar.range_max_m))
     write_run(tmp_path / "bare", report, empty, RunLog(START, 0.02))
     assert sorted(os.listdir(tmp_path / "bare")) == ["coverage.csv", "ground_truth.tum", "path.csv", "report.json",
                                                      "report.md"]
@@ -458,3 +462,29 @@ def test_tag_search_s_counts_from_the_first_tags_phase(run, tmp_path):
     assert log.phase("map", 10.0)
     assert run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 4.0, "done", "recon", final, tags=[])[
         "tag_search_s"] is None
+
+
+def test_standing_time_and_stops_on_a_synthetic_trajectory():
+    # 10 Hz samples along x from t = 0: stand 2 s; drive 0.2 m/s 3 s; stand 1 s (t 5..6); drive
+    # 1 s; stand 0.2 s; drive 0.8 s; stand 0.6 s, a 0.1 s twitch at 0.3 m/s, stand 0.6 s (t
+    # 8..9.3); drive 1 s; stand 0.3 s; drive 1 s.
+    speeds = [0.0] * 20 + [0.2] * 30 + [0.0] * 10 + [0.2] * 10 + [0.0] * 2 + [0.2] * 8 \
+        + [0.0] * 6 + [0.3] + [0.0] * 6 + [0.2] * 10 + [0.0] * 3 + [0.2] * 10
+    t = np.arange(len(speeds) + 1) * 0.1
+    x = np.concatenate([[0.0], np.cumsum(np.asarray(speeds) * 0.1)])
+    poses = np.column_stack([t, x, np.zeros_like(x), np.zeros_like(x)])
+    # Standing: 2 + 1 + 0.2 + 1.2 + 0.3 = 4.7 s. Stops: the 1 s stand and the stand with the
+    # twitch in it (one stop, not two: the twitch is no start); the 0.2 and 0.3 s stands are
+    # too short, the stand at the start follows no move.
+    total, stops = standing(poses, 0.0, t[-1])
+    assert total == pytest.approx(4.7) and stops == 2
+    # The window: to t = 6 s, the first stands only; from 1.5 s, half a second of the first.
+    total, stops = standing(poses, 0.0, 6.0)
+    assert total == pytest.approx(3.0) and stops == 1
+    total, stops = standing(poses, 1.5, 6.0)
+    assert total == pytest.approx(1.5) and stops == 1
+    # A creep at 0.04 m/s stands; at 0.06 m/s it moves.
+    creep = np.column_stack([t[:11], 0.004 * np.arange(11), np.zeros(11)])
+    assert standing(creep, 0.0, 1.0)[0] == pytest.approx(1.0)
+    assert standing(creep * [1.0, 1.5, 1.0], 0.0, 1.0)[0] == 0.0
+    assert standing(np.zeros((1, 3)), 0.0, 1.0) == (0.0, 0)

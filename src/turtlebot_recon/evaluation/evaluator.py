@@ -11,7 +11,7 @@ Clock: sim seconds on the ROS clock; the report's times count from the explorer'
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
@@ -19,11 +19,12 @@ import numpy as np
 
 from ..config import positive, require
 from ..geometry import wrap_angle
+from ..planning.lattice import LatticeSettings
 from ..robot import RobotSpec
 from ..sim.world import World
 from .coverage import CoverageTracker, world_to_map
 from .trajectory_metrics import align_se2, write_tum
-from .metrics import distance_until, map_precision, tag_metrics
+from .metrics import distance_until, map_precision, standing, tag_metrics
 from .report import plot_coverage, plot_map, write_report
 
 # The files of a run directory that write_run writes; the mapper saves map.pgm / map.yaml there
@@ -36,8 +37,9 @@ class EvaluatorSettings:
     """config/evaluator.yaml."""
     world: str = ""                  # a name in worlds/ or a world YAML; no default: the launch
                                          # files set it (their top-level files hold its one default)
-    robot: str = ""                  # F uses its radius_m and lidar range; no default: the launch
+    robot: str = ""                  # F uses its footprint and lidar range; no default: the launch
                                          # files set it (their top-level files hold its one default)
+    lattice: LatticeSettings = field(default_factory=LatticeSettings)   # config/lattice.yaml: F's reachability
     output_dir: str = ""                 # run directory; '' = $ROS_HOME/explore_run
     map_frame: str = "odom"
     odom_frame: str = "odom"             # with SLAM (map_frame map) the odometry's ATE is reported too
@@ -222,6 +224,10 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
     without that phase).
     ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
     ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
+    Extra keys ``time_standing_s`` and ``stops`` (``metrics.standing``: true ground speed under
+    0.05 m/s, stops of 0.5 s or more) count over the exploration: from the explorer's start to
+    the time to 99 %, or to the end of the run where 99 % was never reached. A reference run
+    ends at 99 % (stop_coverage), so every strategy is compared over the same span.
     ValueError if the clock never started (the node starts it at the latest when finishing)."""
     if log.t0_s is None:
         raise ValueError("run_report: the run's clock never started (RunLog.start_clock)")
@@ -242,6 +248,9 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
             report.update(coverage_aligned_final=float(np.mean(coverage.covered(m.occupancy, m.resolution, m.origin, t))),
                           map_alignment=[round(v, 4) for v in t])
     d99 = distance_until(log.path_in_map(), report["time_to_99_s"])
+    t99 = report["time_to_99_s"]
+    standing_s, stops = standing(np.asarray(log.poses, float), log.t0_s,
+                                 end_s if t99 is None else log.t0_s + t99)
     report.update({
         "ate_m": log.ate_m(),
         **tag_report(world, tags),
@@ -253,8 +262,9 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
         "ate_odometry_m": (math.sqrt(float(np.mean(log.ate_odom_sq_m2))) if log.ate_odom_sq_m2
                            else log.ate_m()),       # odometry alone, on the same samples
         "distance_to_99_m": None if d99 is None else round(d99, 3),   # along the recorded path
+        "time_standing_s": round(standing_s, 2), "stops": stops,     # to 99 % (docstring above)
         "F_cells": coverage.cells, "F_m2": round(coverage.area_m2, 2),
-        "F_robot_radius_m": robot.radius_m, "goals": len(log.goals),
+        "goals": len(log.goals),
         "ate_samples": len(log.ate_pairs), "sim_start_s": round(log.t0_s, 2),
         "map": None if final_map is None else final_map.yaml_path,
         "collisions_at": list(log.collisions_at),   # (x, y) m in the map frame and t s (as time_to_*) of each

@@ -64,6 +64,51 @@ def distance_until(path: np.ndarray, t_s):
     return float(np.hypot(*np.diff(p[:, 1:], axis=0).T).sum()) if len(p) > 1 else 0.0
 
 
+STANDING_SPEED_MPS = 0.05   # slower than this (true ground speed) the robot stands (issue 30)
+STOP_MIN_S = 0.5            # a standing spell shorter than this is no stop, a moving spell
+                            # shorter than this between two standing ones no start (a twitch)
+
+
+def standing(poses: np.ndarray, t0_s: float, t1_s: float) -> tuple:
+    """(time_standing_s, stops) between sim times ``t0_s`` and ``t1_s`` of a ground-truth
+    trajectory (rows of sim time s, x m, y m, ...; time order).
+
+    Each interval between consecutive samples is standing when its mean speed (distance over
+    time) is under ``STANDING_SPEED_MPS``: turning in place stands, as it does not advance the
+    robot. time_standing_s sums the standing intervals' time within the window. A stop is a
+    change from moving to standing: a standing spell of at least ``STOP_MIN_S`` after the robot
+    has moved (standing at the window's start is no stop), moving spells shorter than
+    ``STOP_MIN_S`` between two standing ones counted as standing (they do not end a stop)."""
+    p = np.asarray(poses, dtype=float)
+    if p.ndim != 2 or len(p) < 2 or t1_s <= t0_s:
+        return 0.0, 0
+    a, b = p[:-1, 0], p[1:, 0]
+    ok = b > a
+    a, b = a[ok], b[ok]
+    step = np.hypot(*np.diff(p[:, 1:3], axis=0).T)[ok]
+    still = step < STANDING_SPEED_MPS * (b - a)
+    dt = np.clip(np.minimum(b, t1_s) - np.maximum(a, t0_s), 0.0, None)     # within the window
+    keep = dt > 0
+    still, dt = still[keep], dt[keep]
+    if not still.size:
+        return 0.0, 0
+    # runs of equal state: (standing?, duration)
+    edges = np.flatnonzero(np.diff(still.astype(np.int8))) + 1
+    starts = np.concatenate([[0], edges])
+    runs = [[bool(still[i]), float(d)] for i, d in zip(starts, np.add.reduceat(dt, starts))]
+    for k in range(1, len(runs) - 1):        # a twitch between two standing spells
+        if not runs[k][0] and runs[k][1] < STOP_MIN_S and runs[k - 1][0] and runs[k + 1][0]:
+            runs[k][0] = True
+    merged = []
+    for s, d in runs:
+        if merged and merged[-1][0] == s:
+            merged[-1][1] += d
+        else:
+            merged.append([s, d])
+    stops = sum(1 for k, (s, d) in enumerate(merged) if s and k > 0 and d >= STOP_MIN_S)
+    return float(dt[still].sum()), stops
+
+
 FALSE_TAG_M = 0.5      # a confirmed tag farther than this from its true place counts as false
 
 

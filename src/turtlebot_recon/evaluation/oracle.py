@@ -9,10 +9,14 @@ spin: the headroom left to any strategy, and a check on targets stated as ratios
 The route is a heuristic (no optimum is claimed; watchman routes are NP-hard):
 
 1. viewpoints   one cell per ``lattice_m`` block of the cells the navigator's state lattice
-                reaches from the start on the true map (``lattice_cost_to_come``: the
-                explorer's reachability) with cost <= ``max_cost`` (its goal rule);
-2. sight        the F cells each sees: line of sight within the sensor range, LIDAR_BEAMS rays
-                (``_native.visible_cells``, as F itself is made);
+                reaches from the start on the true map with the robot's footprint
+                (``coverage.reachable_cells``: F's and the explorer's reachability) with cost
+                <= ``max_cost`` (its goal rule), and F's own viewpoints where those miss an F
+                cell (``Oracle._viewpoints``): every F cell is seen from a candidate;
+2. sight        the F cells each sees: line of sight within the model's range, LIDAR_BEAMS
+                rays (``_native.visible_cells``, as F itself is made); a cell that no candidate
+                sees so near counts at the lidar's full range (F's), so the target is always
+                within reach: a route is finite wherever F is;
 3. cover        greedy set cover, from what the start sees, until ``target`` of F; restarts
                 draw each choice among the 3 largest gains (seeded);
 4. order        an open tour from the start on path distances (``tour.solve``, the way back free);
@@ -37,10 +41,10 @@ from ..config import positive, require
 from ..exploration import tour
 from ..geometry import cells_to_points
 from ..planning.costmap import PlannerSettings, cost_model
-from ..planning.lattice import LatticeSettings, footprint_costmap, lattice_cost_to_come
+from ..planning.lattice import LatticeSettings, footprint_costmap
 from ..robot import RobotSpec
 from ..sim.world import World
-from .coverage import LIDAR_BEAMS, free_at, lattice_points, reachable_free_space
+from .coverage import LATTICE_M, LIDAR_BEAMS, free_at, lattice_points, reachable_cells, visible_free_space
 
 _TOP_K = 3          # a restart's greedy step draws among this many largest gains
 _SNAP_CELLS = 4     # a position in the inscribed band counts as the nearest passable cell this close
@@ -111,26 +115,53 @@ class Oracle:
         settings.validate("oracle")
         self.world, self.s, self.res = world, settings, world.resolution
         self._cost = cost_model(PlannerSettings(), self.res)       # the planner's step cost
-        F = reachable_free_space(world, robot.radius_m, sensor_range_m)
-        self.F = F.ravel()
-        self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
         self.solid = world.solid.astype(np.uint8)
+        self.full_radius_cells = sensor_range_m / self.res
         self.radius_cells = max(0.0, sensor_range_m - settings.range_margin_m) / self.res
-        occupancy = world.occupancy()
         # the navigator's graded costmap (253 where no heading of the footprint fits) for path
-        # distances, and its lattice for where the robot can go
+        # distances, and its lattice for where the robot can go: F's reachability
         lattice = lattice.with_robot(robot)
-        self.costmap = footprint_costmap(occupancy, self.res, robot, lattice)
+        self.costmap = footprint_costmap(world.occupancy(), self.res, robot, lattice)
         if self.cell(world.start[0], world.start[1]) is None:
             raise ValueError(f"{world.path}: the start is off the map or in an obstacle's "
                              "inscribed band")
-        field = lattice_cost_to_come(occupancy, self.res, world.origin, robot, world.start, lattice)
-        ok = np.isfinite(field) & (self.costmap <= settings.max_cost)
-        self.cells = lattice_points(ok, max(1, round(settings.lattice_m / self.res)))
+        reach = reachable_cells(world, robot, lattice)
+        self.F = visible_free_space(world, reach, sensor_range_m).ravel()
+        self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
         self._sight: dict = {}
+        self._full: dict = {}
         self._legs: dict = {}
         self._pairs: dict = {}              # (cell, cell) -> path distance (m)
         self.need = 0                       # F cells the route being planned must see
+        self.cells = self._viewpoints(reach)
+
+    def _viewpoints(self, reach: np.ndarray) -> np.ndarray:
+        """Candidate viewpoints (int32 (n, 2)) such that every F cell is seen from one.
+
+        One per ``lattice_m`` block of the reachable cells with cost <= ``max_cost``; where
+        those miss F cells (seen only from a gap's inside, whose cost is higher, or from
+        between the blocks' picks), F's own viewpoints that see them are added. A cell that no
+        candidate sees within the model's shortened range is counted at the full range
+        (``sight``): F is what the lidar sees, so a route over these candidates always reaches
+        the target (a hall seen only through gaps, from 3-3.5 m, made the route infinite)."""
+        ok = reach & (self.costmap <= self.s.max_cost)
+        cells = lattice_points(ok, max(1, round(self.s.lattice_m / self.res)))
+        seen = np.zeros(self.F.size, bool)
+        for c in cells:
+            seen[self._full_sight(c)] = True
+        if not seen[self.F_cells].all():
+            extra = []
+            for c in lattice_points(reach, max(1, int(round(LATTICE_M / self.res)))):
+                v = self._full_sight(c)
+                if not seen[v].all():
+                    extra.append(c)
+                    seen[v] = True
+            cells = np.concatenate([cells, np.reshape(extra, (-1, 2))]).astype(np.int32)
+        near = np.zeros(self.F.size, bool)
+        for c in cells:
+            near[self._near_sight(c)] = True
+        self._far_only = self.F & ~near     # F cells no candidate sees within the model's range
+        return cells
 
     def cell(self, x: float, y: float):
         """The world cell (row, col) of (x, y), or the nearest passable one within
@@ -157,13 +188,29 @@ class Oracle:
     def _xy(self, cells) -> np.ndarray:
         return cells_to_points(np.reshape(cells, (-1, 2)), self.res, self.world.origin)
 
+    def _full_sight(self, cell) -> np.ndarray:
+        """Flat indices of the F cells the lidar sees from ``cell`` (row, col) at its full range."""
+        key = (int(cell[0]), int(cell[1]))
+        if key not in self._full:
+            seen = _native.visible_cells(self.solid, np.array([key], np.int32), self.full_radius_cells,
+                                         beams=LIDAR_BEAMS).ravel()
+            self._full[key] = np.flatnonzero(seen & self.F)
+        return self._full[key]
+
+    def _near_sight(self, cell) -> np.ndarray:
+        """The part of ``_full_sight`` within the model's range (a ray's cells up to a distance
+        are the same whatever range it goes on to: ``visible_cells`` stops rays beyond it)."""
+        v = self._full_sight(cell)
+        r, c = np.divmod(v, self.world.free.shape[1])
+        return v[(r - int(cell[0])) ** 2 + (c - int(cell[1])) ** 2 <= self.radius_cells ** 2]
+
     def sight(self, cell) -> np.ndarray:
-        """Flat indices of the F cells seen from ``cell`` (row, col)."""
+        """Flat indices of the F cells the model sees from ``cell`` (row, col): those within the
+        model's range, and those no candidate sees so near within the full range."""
         key = (int(cell[0]), int(cell[1]))
         if key not in self._sight:
-            seen = _native.visible_cells(self.solid, np.array([key], np.int32), self.radius_cells,
-                                         beams=LIDAR_BEAMS).ravel()
-            self._sight[key] = np.flatnonzero(seen & self.F)
+            far = self._full_sight(key)
+            self._sight[key] = np.union1d(self._near_sight(key), far[self._far_only[far]])
         return self._sight[key]
 
     def route(self, start_xy=None, covered=None, restarts=None, target=None) -> Route:
