@@ -147,3 +147,26 @@ def test_a_route_is_finite_wherever_f_is(rock_room, robot_name):
     route = oracle.route()
     assert math.isfinite(route.distance_m) and route.distance_m < 15.0
     assert route.seen >= 0.99
+
+
+def test_cells_seen_only_from_inside_a_narrow_passage_get_a_viewpoint_there(tmp_path):
+    # A 3 x 3 m room (x, y 0.1..3.1) and off it a 0.45 m passage east (y 1.3..1.75, to x 5.1)
+    # that turns north at its end (x 4.65..5.1, to y 3.6). In a 0.45 m passage the burger's
+    # cost is over max_cost (128) everywhere, so no costed viewpoint lies in it, and the
+    # northern leg is out of sight from the room: only F's own viewpoints in the passage see
+    # it. They must be candidates, and the route must see the target.
+    free = np.zeros((80, 110), bool)
+    free[2:62, 2:62] = True
+    free[26:35, 62:102] = True
+    free[26:72, 93:102] = True
+    world = load_world(write_world(tmp_path, "passage", free, start=[1.0, 1.5, 0.0]))
+    oracle = Oracle(world, load_robot("turtlebot3_burger"), LIDAR_M, OracleSettings(restarts=0))
+    north = oracle.F.reshape(world.free.shape)[40:72, 93:102]
+    assert north.sum() > 0.05 * oracle.F_cells.size
+    assert any(oracle.costmap[r, c] > OracleSettings().max_cost for r, c in oracle.cells)
+    union = np.zeros(oracle.F.size, bool)
+    for c in oracle.cells:
+        union[oracle.sight(c)] = True
+    assert np.array_equal(union, oracle.F)
+    route = oracle.route()
+    assert math.isfinite(route.distance_m) and route.seen >= 0.99

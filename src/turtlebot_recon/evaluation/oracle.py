@@ -35,6 +35,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
 from .. import _native
 from ..config import positive, require
@@ -129,7 +130,6 @@ class Oracle:
         self.F = visible_free_space(world, reach, sensor_range_m).ravel()
         self.F_cells = np.flatnonzero(self.F)      # CoverageTracker's order (row-major)
         self._sight: dict = {}
-        self._full: dict = {}
         self._legs: dict = {}
         self._pairs: dict = {}              # (cell, cell) -> path distance (m)
         self.need = 0                       # F cells the route being planned must see
@@ -146,20 +146,25 @@ class Oracle:
         the target (a hall seen only through gaps, from 3-3.5 m, made the route infinite)."""
         ok = reach & (self.costmap <= self.s.max_cost)
         cells = lattice_points(ok, max(1, round(self.s.lattice_m / self.res)))
-        seen = np.zeros(self.F.size, bool)
+        seen, near = np.zeros(self.F.size, bool), np.zeros(self.F.size, bool)
         for c in cells:
-            seen[self._full_sight(c)] = True
-        if not seen[self.F_cells].all():
+            full = self._full_sight(c)
+            seen[full] = True
+            near[self._near(c, full)] = True
+        missed = self.F & ~seen
+        if missed.any():
+            # only F's viewpoints within the lidar's range of a missed cell can see one
+            reach_missed = ndimage.distance_transform_edt(~missed.reshape(reach.shape)) <= self.full_radius_cells
             extra = []
             for c in lattice_points(reach, max(1, int(round(LATTICE_M / self.res)))):
-                v = self._full_sight(c)
-                if not seen[v].all():
+                if not reach_missed[c[0], c[1]]:
+                    continue
+                full = self._full_sight(c)
+                if not seen[full].all():
                     extra.append(c)
-                    seen[v] = True
+                    seen[full] = True
+                    near[self._near(c, full)] = True
             cells = np.concatenate([cells, np.reshape(extra, (-1, 2))]).astype(np.int32)
-        near = np.zeros(self.F.size, bool)
-        for c in cells:
-            near[self._near_sight(c)] = True
         self._far_only = self.F & ~near     # F cells no candidate sees within the model's range
         return cells
 
@@ -189,28 +194,27 @@ class Oracle:
         return cells_to_points(np.reshape(cells, (-1, 2)), self.res, self.world.origin)
 
     def _full_sight(self, cell) -> np.ndarray:
-        """Flat indices of the F cells the lidar sees from ``cell`` (row, col) at its full range."""
-        key = (int(cell[0]), int(cell[1]))
-        if key not in self._full:
-            seen = _native.visible_cells(self.solid, np.array([key], np.int32), self.full_radius_cells,
-                                         beams=LIDAR_BEAMS).ravel()
-            self._full[key] = np.flatnonzero(seen & self.F)
-        return self._full[key]
+        """Flat indices (int32) of the F cells the lidar sees from ``cell`` (row, col) at its
+        full range."""
+        seen = _native.visible_cells(self.solid, np.array([[int(cell[0]), int(cell[1])]], np.int32),
+                                     self.full_radius_cells, beams=LIDAR_BEAMS).ravel()
+        return np.flatnonzero(seen & self.F).astype(np.int32)
 
-    def _near_sight(self, cell) -> np.ndarray:
-        """The part of ``_full_sight`` within the model's range (a ray's cells up to a distance
-        are the same whatever range it goes on to: ``visible_cells`` stops rays beyond it)."""
-        v = self._full_sight(cell)
-        r, c = np.divmod(v, self.world.free.shape[1])
-        return v[(r - int(cell[0])) ** 2 + (c - int(cell[1])) ** 2 <= self.radius_cells ** 2]
+    def _near(self, cell, full: np.ndarray) -> np.ndarray:
+        """The part of ``full`` (``_full_sight(cell)``) within the model's range (a ray's cells
+        up to a distance are the same whatever range it goes on to: ``visible_cells`` stops
+        rays beyond it)."""
+        r, c = np.divmod(full, self.world.free.shape[1])
+        return full[(r - int(cell[0])) ** 2 + (c - int(cell[1])) ** 2 <= self.radius_cells ** 2]
 
     def sight(self, cell) -> np.ndarray:
-        """Flat indices of the F cells the model sees from ``cell`` (row, col): those within the
-        model's range, and those no candidate sees so near within the full range."""
+        """Flat indices (int32) of the F cells the model sees from ``cell`` (row, col): those
+        within the model's range, and those no candidate sees so near within the full range.
+        Cached (int32 halves what a big floor's thousands of viewpoints hold)."""
         key = (int(cell[0]), int(cell[1]))
         if key not in self._sight:
-            far = self._full_sight(key)
-            self._sight[key] = np.union1d(self._near_sight(key), far[self._far_only[far]])
+            full = self._full_sight(key)
+            self._sight[key] = np.union1d(self._near(key, full), full[self._far_only[full]])
         return self._sight[key]
 
     def route(self, start_xy=None, covered=None, restarts=None, target=None) -> Route:
