@@ -256,6 +256,7 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "sim_start_s": 10.0, "map": "/runs/x/map.yaml", "collisions_at": [(1.0, 1.0, 3.5)],
     }
     assert "room · turtlebot3_burger · recon | coverage 100.0 % (90 % at 3 s" in summary_line(report)
+    assert "| 2.0 m driven | standing 1 s, 0 stops |" in summary_line(report)
     # Without a map: precision and seen unknown (null), no map file.
     bare = run_report(EvaluatorSettings(), world, robot, coverage, log, 20.0, 0.0, "shut down", None)
     assert "coverage_seen_final" not in bare and bare["map"] is None and bare["rtf"] is None

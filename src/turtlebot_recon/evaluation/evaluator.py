@@ -326,5 +326,6 @@ def summary_line(report: dict) -> str:
     return (f"{title(report)} | coverage {_pct(report['coverage_final'])} (90 % at {_sec(report['time_to_90_s'])}, "
             f"95 % at {_sec(report['time_to_95_s'])}, 99 % at {_sec(report['time_to_99_s'])}; "
             f"seen {_pct(report.get('coverage_seen_final'))}) | {report['distance_m']:.1f} m driven | "
+            f"standing {report['time_standing_s']:.0f} s, {report['stops']} stops | "
             f"{report['collisions']} collisions | sim {report['sim_time_s']:.0f} s, wall {report['wall_time_s']:.0f} s, "
             f"rtf {report['rtf']} | ATE {'-' if ate is None else f'{ate:.3f} m'} | {report['finished_reason']}")
