@@ -172,6 +172,7 @@ class PyMppi {
   }
 
   void reset() { opt_->reset(); }
+  void carry(double v, double w) { opt_->carry(static_cast<float>(v), static_cast<float>(w)); }
 
   void set_map(const I8Grid& occupancy, double resolution, std::pair<double, double> origin,
                int occupied_threshold) {
@@ -283,6 +284,9 @@ void register_mppi(py::module_& m) {
            py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("seed"))
       .def("reset", &PyMppi::reset,
            "Zero control sequence and history; the noise restarts from the seed.")
+      .def("carry", &PyMppi::carry, py::arg("v"), py::arg("w"),
+           "Hold the control sequence and the history at (v m/s, w rad/s): the warm start of "
+           "a robot already driving at them.")
       .def("set_map", &PyMppi::set_map, py::arg("occupancy"), py::arg("resolution"),
            py::arg("origin"), py::arg("occupied_threshold"),
            "Build the distance field of the int8 occupancy's obstacle cells (>= threshold).")

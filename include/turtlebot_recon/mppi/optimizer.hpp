@@ -127,6 +127,16 @@ class Optimizer {
     weights_.resize(K);
   }
 
+  // The control sequence and the sent commands held at (v, w), as if the robot had been
+  // driving at them: after a reset for a new goal taken over while driving, the warm start
+  // carries the speed on instead of starting from rest (from rest: the same as reset()).
+  void carry(float v, float w) {
+    u_v_.setConstant(v);
+    u_w_.setConstant(w);
+    history_v_.fill(v);
+    history_w_.fill(w);
+  }
+
   // The obstacles: the distance field of an occupancy grid whose cell (0, 0) has its corner
   // at the origin (m), and where the body is clear of them for sure.
   void set_map(control::DistanceField field, double origin_x_m, double origin_y_m) {

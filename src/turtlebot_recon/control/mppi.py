@@ -230,6 +230,7 @@ class MppiController:
     # ------------------------------------------------------------------ contract
     def reset(self) -> None:
         self._opt.reset()
+        self._carry = True                         # the next iteration starts at the speeds now
         self.tracker.reset()
         self._dense_of = None                      # the track _dense was made for
         self._dense: Optional[np.ndarray] = None   # the track every path_spacing_m (n, 2)
@@ -352,6 +353,11 @@ class MppiController:
         # the speeds now, within the limits (a measured speed may overshoot them a little)
         v0 = min(max(velocity[0], cfg.min_linear_mps), self.robot.max_linear_mps)
         w0 = min(max(velocity[1], -self.robot.max_angular_radps), self.robot.max_angular_radps)
+        if self._carry:
+            # a new goal while driving: go on at the speed the robot has instead of easing off
+            # from a warm start at rest (from rest the two are the same)
+            self._opt.carry(v0, w0)
+            self._carry = False
         out = self._opt.optimize(pose, (v0, w0), self._local_path(), (goal[0], goal[1]),
                                  goal_yaw=gy, shift_steps=shift)
         self._start = tuple(pose)
