@@ -148,9 +148,8 @@ class Oracle:
         cells = lattice_points(ok, max(1, round(self.s.lattice_m / self.res)))
         seen, near = np.zeros(self.F.size, bool), np.zeros(self.F.size, bool)
         for c in cells:
-            full = self._full_sight(c)
-            seen[full] = True
-            near[self._near(c, full)] = True
+            seen[self._seen_from(c, self.full_radius_cells)] = True
+            near[self._seen_from(c, self.radius_cells)] = True
         missed = self.F & ~seen
         if missed.any():
             # only F's viewpoints within the lidar's range of a missed cell can see one
@@ -159,11 +158,11 @@ class Oracle:
             for c in lattice_points(reach, max(1, int(round(LATTICE_M / self.res)))):
                 if not reach_missed[c[0], c[1]]:
                     continue
-                full = self._full_sight(c)
+                full = self._seen_from(c, self.full_radius_cells)
                 if not seen[full].all():
                     extra.append(c)
                     seen[full] = True
-                    near[self._near(c, full)] = True
+                    near[self._seen_from(c, self.radius_cells)] = True
             cells = np.concatenate([cells, np.reshape(extra, (-1, 2))]).astype(np.int32)
         self._far_only = self.F & ~near     # F cells no candidate sees within the model's range
         return cells
@@ -193,19 +192,12 @@ class Oracle:
     def _xy(self, cells) -> np.ndarray:
         return cells_to_points(np.reshape(cells, (-1, 2)), self.res, self.world.origin)
 
-    def _full_sight(self, cell) -> np.ndarray:
-        """Flat indices (int32) of the F cells the lidar sees from ``cell`` (row, col) at its
-        full range."""
+    def _seen_from(self, cell, radius_cells: float) -> np.ndarray:
+        """Flat indices (int32) of the F cells seen from ``cell`` (row, col) within
+        ``radius_cells``: line of sight, LIDAR_BEAMS rays."""
         seen = _native.visible_cells(self.solid, np.array([[int(cell[0]), int(cell[1])]], np.int32),
-                                     self.full_radius_cells, beams=LIDAR_BEAMS).ravel()
+                                     radius_cells, beams=LIDAR_BEAMS).ravel()
         return np.flatnonzero(seen & self.F).astype(np.int32)
-
-    def _near(self, cell, full: np.ndarray) -> np.ndarray:
-        """The part of ``full`` (``_full_sight(cell)``) within the model's range (a ray's cells
-        up to a distance are the same whatever range it goes on to: ``visible_cells`` stops
-        rays beyond it)."""
-        r, c = np.divmod(full, self.world.free.shape[1])
-        return full[(r - int(cell[0])) ** 2 + (c - int(cell[1])) ** 2 <= self.radius_cells ** 2]
 
     def sight(self, cell) -> np.ndarray:
         """Flat indices (int32) of the F cells the model sees from ``cell`` (row, col): those
@@ -213,8 +205,11 @@ class Oracle:
         Cached (int32 halves what a big floor's thousands of viewpoints hold)."""
         key = (int(cell[0]), int(cell[1]))
         if key not in self._sight:
-            full = self._full_sight(key)
-            self._sight[key] = np.union1d(self._near(key, full), full[self._far_only[full]])
+            v = self._seen_from(key, self.radius_cells)
+            if self._far_only.any():
+                full = self._seen_from(key, self.full_radius_cells)
+                v = np.union1d(v, full[self._far_only[full]])
+            self._sight[key] = v
         return self._sight[key]
 
     def route(self, start_xy=None, covered=None, restarts=None, target=None) -> Route:
