@@ -376,6 +376,28 @@ def test_recon_keeps_its_goal_unless_a_tour_is_faster_by_more_than_a_switch_cost
     assert s.plans == 2
 
 
+@pytest.mark.parametrize("col, side", [(140, "left"), (152, "right")])
+def test_recon_tour_outlives_its_first_goal(corridor, col, side):
+    """Clusters A (x 3.0), B (x 5.0, twice the gain) and C (x 9.4); the robot at x 6.0 faces
+    -x. The tour B, A, C (36.8 s) beats A, B, C (37.2 s). B's frontier is then seen on the way
+    (gone) and the robot stands further east. From x 7.0 the last tour's next goal A (15.6 +
+    25.6 = 41.2 s) is kept against a fresh tour C first (9.2 + 3.9 s of turning + 25.6 = 38.7 s):
+    2.5 s faster, less than the turn to face C (pi / 0.8 = 3.9 s). From x 7.6 the fresh tour
+    is 7.3 s faster: taken."""
+    up = make_ctx(np.zeros((20, 240)), (10, 120), yaw=math.pi)
+    fs = [make_frontier(up, column(c, range(5, 16)), id=i, gain=g)
+          for i, (c, g) in enumerate(((60, 400), (100, 800), (188, 400)))]
+    s, book = Recon(), GoalBook()
+    first = s.choose(fs, up, book)
+    assert first.id == 1 and [round(x, 1) for x, _ in s.last_tour] == [5.0, 3.0, 9.4]
+    book.start(first, up)
+    c = make_ctx(np.zeros((20, 240)), (10, col), yaw=math.pi)
+    book.active = None                                   # dropped: its frontier was seen
+    rest = [make_frontier(c, f.cells, id=f.id, gain=f.gain) for f in fs if f.id != 1]
+    assert s.choose(rest, c, book).id == (0 if side == "left" else 2)
+    assert Recon().choose(rest, c, GoalBook()).id == 2   # a fresh tour goes to C first
+
+
 def test_recon_switch_cost_grows_with_speed(corridor):
     """Stopping from speed v and getting back to it loses v / a: at 0.25 m/s and 2.5 m/s^2,
     0.1 s; the switch that a standing robot makes by 0.05 s, a moving one does not."""

@@ -54,20 +54,23 @@ class Recon:
     chosen, so the robot finishes one end of the building before crossing to the other.
 
     Commitment: the goal being pursued (``book.active``; its cluster is the candidate holding
-    most of its frontier cells) is kept, and the tour is not planned again, until a map event:
-    a cluster born or gone (no cluster of the last plan within ``reevaluate_radius_m`` of it,
-    or the reverse) or the pursued cluster's gain halved since then. The explorer drops the
-    goal when it is reached, its frontier is seen, it is blocked or cut off, so those need no
-    event here. At an event the tour is planned again and the pursued goal still kept unless
-    the best tour beats the best tour that starts with it by more than what switching costs:
-    stopping from the present speed and turning to the new goal (``Motion.stop_s`` +
-    ``Motion.turn_s`` of its heading error); and never when the pursued goal is nearer than
-    that in time (arriving costs less than turning away).
+    most of its frontier cells) is kept, and no tour is planned, until a map event: a cluster
+    born or gone (no cluster of the last plan within ``reevaluate_radius_m`` of it, or the
+    reverse) or the pursued cluster's gain halved. (The explorer drops the goal when it is
+    reached, its frontier is seen, it is blocked or cut off.) The tour outlives its first goal:
+    at an event, and after a drop or an arrival, the last tour is brought up to date (its
+    remaining clusters in its order, the pursued one first, new ones inserted where they add
+    least, 2-opt behind the first) and followed unless a fresh tour is faster by more than
+    what leaving it costs: stopping from the present speed and turning to face the new first
+    goal (``Motion.stop_s`` + ``Motion.turn_s`` of its heading error); and never when the
+    followed tour's first goal is nearer than that in time (arriving costs less than turning
+    away). Tours re-solved from scratch at every cycle swung between the two ends of a ring of
+    frontiers (goals 7 m apart in consecutive seconds in the arena).
 
     Candidates: usable goals (reachable, affordable, not blacklisted, not found unreachable on
     an unchanged map; a frontier that survived an arrival at its goal comes with another
     viewpoint as its goal, see ``viewpoints``); the tour_max_clusters cheapest first legs
-    enter the tour, and the pursued cluster. Small gains are not set aside for later: a small
+    enter the tour, with the last tour's remaining clusters. Small gains are not set aside for later: a small
     frontier (a dead end's last cells, a corner) costs little while the robot is near it and
     a long trip back at the end (keeping gains under 0.1 m^2 for last cost about 20 % of the
     time to 99 % in the maze).
@@ -80,6 +83,7 @@ class Recon:
         self.last_tour: List[Point] = []   # goals in tour order, for display
         self.plans = 0                     # tours planned (decisions at map events)
         self._clusters: List[np.ndarray] = []   # the last plan's candidates' frontier points
+        self._tour: List[np.ndarray] = []       # ... and its tour's, in order
         self._pursued_gain = 0               # the pursued cluster's gain at the last plan
 
     def first_leg(self, f: Frontier, ctx: Context) -> float:
@@ -98,7 +102,7 @@ class Recon:
         s = self.settings
         cands = usable(frontiers, ctx, book)
         if not cands:
-            self.last_tour, self._clusters = [], []
+            self.last_tour, self._clusters, self._tour = [], [], []
             return None
         radius_m = book.settings.reevaluate_radius_m
         points = [_points(f, ctx) for f in cands]
@@ -109,14 +113,19 @@ class Recon:
         self._clusters = points
         self._pursued_gain = cands[pursued].gain if pursued is not None else 0
         legs = np.array([self.first_leg(f, ctx) for f in cands])
-        keep = list(np.argsort(legs, kind="stable")[:s.tour_max_clusters])
-        if pursued is not None and pursued not in keep:
-            keep.append(pursued)
-        cands, legs = [cands[i] for i in keep], legs[keep]
-        pursued = keep.index(pursued) if pursued is not None else None
+        # the last tour, as far as its clusters remain, the pursued one first
+        old = _matches(self._tour, points, radius_m)
+        if pursued is not None:
+            old = [pursued] + [i for i in old if i != pursued]
+        keep = list(dict.fromkeys(old + [int(i) for i in np.argsort(legs, kind="stable")[:s.tour_max_clusters]]))
+        cands, legs, points = [cands[i] for i in keep], legs[keep], [points[i] for i in keep]
+        old = list(range(len(old)))               # they lead `keep`
         if not s.use_tour or len(cands) == 1:
             order = [int(i) for i in np.argsort(legs, kind="stable")]
-            best_s, D = legs[order[0]], None
+            if old and order[0] != old[0] and not self._switch(legs[old[0]], legs[order[0]], legs[old[0]],
+                                                               cands[order[0]], ctx):
+                order.remove(old[0])
+                order.insert(0, old[0])
         else:
             factor = max(1, int(round(s.tour_cell_m / ctx.resolution)))
             D = tour.path_distance_matrix(ctx.costmap, ctx.cost_to_come,
@@ -124,15 +133,17 @@ class Recon:
             D = _motion(ctx).path_s(D)
             D[0, 1:] = legs
             D = tour.prepare(D)
-            best = tour.solve(D)
-            order, best_s = [i - 1 for i in best[1:]], tour.length(D, best)
-        pick = order[0]
-        if pursued is not None and pursued != pick and self._stay(pursued, pick, best_s, D, legs, cands, ctx):
-            order.remove(pursued)
-            order.insert(0, pursued)
-            pick = pursued
+            fresh = tour.solve(D)
+            order = [i - 1 for i in fresh[1:]]
+            if old:
+                kept = _repair(D, [i + 1 for i in old])
+                if kept[1] == fresh[1] or not self._switch(tour.length(D, kept), tour.length(D, fresh),
+                                                           legs[old[0]], cands[order[0]], ctx):
+                    order = [i - 1 for i in kept[1:]]
+        self._tour = [points[i] for i in order]
         self.last_tour = [cands[i].goal for i in order]
-        return _keep(cands[pick], book, ctx) if pick == pursued else cands[pick]
+        pick = order[0]
+        return _keep(cands[pick], book, ctx) if pursued is not None and pick == 0 else cands[pick]
 
     def _event(self, points: Sequence[np.ndarray], pursued: Frontier, radius_m: float) -> bool:
         """A map event since the last plan: a cluster born or gone, or the pursued cluster's
@@ -141,22 +152,48 @@ class Recon:
             return True
         return _unmatched(points, self._clusters, radius_m) or _unmatched(self._clusters, points, radius_m)
 
-    def _stay(self, pursued: int, pick: int, best_s: float, D: Optional[np.ndarray], legs: np.ndarray,
-              cands: List[Frontier], ctx: Context) -> bool:
-        """Keep the pursued goal: the best tour is not faster than the best one that starts with
-        it by more than a switch costs, or the pursued goal is nearer than that."""
+    @staticmethod
+    def _switch(kept_s: float, new_s: float, first_s: float, new_first: Frontier, ctx: Context) -> bool:
+        """Leave the tour being followed (whose first leg takes first_s) for a new one: only
+        when the new one is faster by more than a switch costs (stopping from the present
+        speed, turning to face the new first goal), and not when the first goal is nearer than
+        that (arriving costs less than turning away)."""
         motion = _motion(ctx)
-        switch_s = motion.stop_s + motion.turn_s(heading_error(ctx, cands[pick].goal))
-        if legs[pursued] <= switch_s:
-            return True
-        if D is None:
-            forced_s = legs[pursued]
-        else:
-            node = pursued + 1                 # forced first: solve the rest from there
-            rest = [node] + [i for i in range(1, len(D)) if i != node]
-            sub = D[np.ix_(rest, rest)]
-            forced_s = D[0, node] + tour.length(sub, tour.solve(sub))
-        return forced_s <= best_s + switch_s
+        switch_s = motion.stop_s + motion.turn_s(heading_error(ctx, new_first.goal))
+        return first_s > switch_s and kept_s - new_s > switch_s
+
+
+def _matches(tour_points: Sequence[np.ndarray], points: Sequence[np.ndarray], radius_m: float) -> List[int]:
+    """The clusters of the last tour that remain, in its order: for each, the current cluster
+    holding most of its cells within radius_m (each current cluster once)."""
+    out: List[int] = []
+    if not tour_points:
+        return out
+    trees = [cKDTree(p) for p in points]
+    for old in tour_points:
+        counts = [int(np.count_nonzero(t.query(old, k=1)[0] <= radius_m + 1e-9)) for t in trees]
+        best = int(np.argmax(counts))
+        if counts[best] > 0 and best not in out:
+            out.append(best)
+    return out
+
+
+def _repair(D: np.ndarray, old: List[int]) -> List[int]:
+    """The last tour brought up to date: its remaining nodes in its order, the first kept; the
+    new nodes inserted where they add least, then 2-opt behind the first (``tour.two_opt``)."""
+    path = list(old)
+    for k in range(1, len(D)):
+        if k in path:
+            continue
+        gaps = [D[path[i], k] + D[k, path[i + 1]] - D[path[i], path[i + 1]] for i in range(len(path) - 1)]
+        gaps.append(D[path[-1], k])
+        at = int(np.argmin(gaps)) + 1
+        path.insert(at, k)
+    first = path[0]
+    rest = [first] + path[1:]
+    sub = D[np.ix_(rest, rest)]
+    improved = tour.two_opt(sub, list(range(len(rest))))
+    return [0] + [rest[i] for i in improved]
 
 
 def _motion(ctx: Context):
