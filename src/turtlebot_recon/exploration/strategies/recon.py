@@ -70,10 +70,10 @@ class Recon:
     Candidates: usable goals (reachable, affordable, not blacklisted, not found unreachable on
     an unchanged map; a frontier that survived an arrival at its goal comes with another
     viewpoint as its goal, see ``viewpoints``); the tour_max_clusters cheapest first legs
-    enter the tour, with the last tour's remaining clusters. Small gains are not set aside for later: a small
-    frontier (a dead end's last cells, a corner) costs little while the robot is near it and
-    a long trip back at the end (keeping gains under 0.1 m^2 for last cost about 20 % of the
-    time to 99 % in the maze).
+    enter the tour, with the last tour's remaining clusters. Small gains are not set aside for
+    later: a small frontier (a dead end's last cells, a corner) costs little while the robot
+    is near it and a long trip back at the end (keeping gains under 0.1 m^2 for last cost
+    about 20 % of the time to 99 % in the maze).
     """
     name = "recon"
     Settings = ReconSettings
