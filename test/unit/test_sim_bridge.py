@@ -72,3 +72,12 @@ def test_relative_to_start():
     # a point at +x of the start is on the robot's right (-y), heading wrapped to (-pi, pi]
     x, y, yaw = relative_to_start((1.0, 2.0, math.pi / 2), (2.0, 2.0, -math.pi))
     assert (x, y) == pytest.approx((0.0, -1.0)) and yaw == pytest.approx(math.pi / 2)
+
+
+def test_clock_stamps_land_on_the_timers_deadlines():
+    from turtlebot_recon.ros import convert
+    # 29 steps of 0.01 s are 0.28999999999999998 s: truncated (rospy's from_sec) the stamp read
+    # 0.289999999, a 10 Hz timer due at 0.29 missed that /clock tick and the simulator, at
+    # rtf 0 waiting for the navigator, sat out its wait; to the nearest ns every step is exact
+    assert all(convert.stamp(k * 0.01).to_nsec() == k * 10_000_000 for k in range(100_000))
+    assert convert.stamp(2.4).to_nsec() == 2_400_000_000
