@@ -9,7 +9,7 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry, Path
 from std_msgs.msg import UInt32
@@ -75,6 +75,26 @@ class NavigatorRoom(unittest.TestCase):
         self.assertEqual(client.get_state(), GoalStatus.ABORTED)
         self.assertIn("goal", client.get_goal_status_text())
         self.assertEqual(rospy.wait_for_message("/sim/collisions", UInt32, timeout=5).data, 0)
+
+    def test_4_a_new_goal_while_driving_does_not_stop_the_robot(self):
+        """A goal replaced by another while driving: the navigator drives on (before, the
+        preempt published a zero command: a stop at every new goal of the explorer)."""
+        client = actionlib.SimpleActionClient("/move_base", MoveBaseAction)
+        client.wait_for_server(rospy.Duration(10))
+        client.send_goal(MoveBaseGoal(target_pose=goal_pose(1.6, -0.6)))   # world (2.6, 0.5)
+        deadline = rospy.get_time() + 30.0
+        while rospy.wait_for_message("/sim/ground_truth", Odometry, timeout=10).twist.twist.linear.x < 0.15:
+            self.assertLess(rospy.get_time(), deadline, "the robot never got going")
+        commands = []
+        sub = rospy.Subscriber("/cmd_vel", Twist, lambda m: commands.append(m.linear.x))
+        rospy.sleep(0.3)
+        client.send_goal(MoveBaseGoal(target_pose=goal_pose(1.9, -0.5)))   # further on, nearly ahead
+        rospy.sleep(1.5)
+        sub.unregister()
+        self.assertGreater(len(commands), 5)
+        self.assertGreater(min(commands), 0.05, f"the robot braked for the new goal: {commands}")
+        self.assertTrue(client.wait_for_result(rospy.Duration(60)))
+        self.assertEqual(client.get_state(), GoalStatus.SUCCEEDED, client.get_goal_status_text())
 
 
 if __name__ == "__main__":
