@@ -14,6 +14,7 @@ Two frontiers: the unknown columns 19 and 60. The robot stands at the centre of 
 the robot snapped to the nearest reachable cell, i.e. (20, 19) -> (20, 20), centre
 (1.025, 1.025), 0.5 m away, beats (20, 60) -> (20, 59), centre (2.975, 1.025), 1.45 m away.
 """
+import dataclasses
 import logging
 import math
 
@@ -542,3 +543,21 @@ def test_an_unconfirmed_tag_is_looked_at_before_the_next_frontier():
     later = [g for i in range(5, 30) for g in sent(i / 10, ())]  # confirmed: back to the frontiers
     assert later and later[-1].yaw is None and ex.book.active is not None
     assert later[-1].xy in [approx_xy(f.goal) for f in ex.frontiers]
+
+
+def test_a_strategys_own_goal_found_unreachable_is_not_chosen_again():
+    """A goal of the strategy's own (not one of the frontiers' goals: sampled's tags, density's
+    cells) found unreachable leaves nothing to choose instead of choosing it for ever."""
+    class Own:
+        name = "own"
+
+        def choose(self, frontiers, ctx, book):
+            f = frontiers[0]
+            return dataclasses.replace(f, id=-1, goal=LEFT_GOAL)
+    run = Run()
+    run.ex.strategy = Own()
+    goal = run.until_goal()
+    run.tick(events=[NavEvent(goal.seq, "failed", GOAL_UNREACHABLE + "no way")])
+    for _ in range(20):
+        assert not [x for x in run.actions() if isinstance(x, SendGoal)]
+    assert run.ex.choice is None

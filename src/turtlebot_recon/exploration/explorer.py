@@ -35,6 +35,13 @@ seen least per metre of path) and sends it with its heading; the supervisor's fi
 counts a cycle without frontier and view as empty. ``ExploreInputs.camera_poses`` (each
 camera frame's pose since the last tick) feed the camera's coverage map.
 
+Goals go out before the robot would stop for them: a goal whose frontier is seen on the way
+is dropped at the next cycle, and one within stopping distance (``_hand_off``) counts as
+reached and the next goal goes out at once. A navigator failure whose reason begins
+``GOAL_UNREACHABLE`` is the goal's: one line, no retry, and the goal book keeps it out while
+the map near it is unchanged (``GoalBook.unreachable``). In mission ``tags`` a tag seen but not
+confirmed is looked at before the next frontier (``_priority_tag``).
+
 An abort of a goal that the explorer's own field still reaches says, in practice, that the
 robot is wedged (the navigator reports "blocked" wherever it stands), not that the goal is
 bad: the goal is re-sent (up to ``abort_retries`` times in a row) instead of failed, so the
@@ -428,7 +435,10 @@ class Explorer:
             choice = self.strategy.choose(frontiers, ctx, self.book)
             if choice is None or not self.book.is_unreachable(choice.goal, ctx):
                 return choice
-            frontiers = [f for f in frontiers if f.id != choice.id]
+            rest = [f for f in frontiers if f.id != choice.id]
+            if len(rest) == len(frontiers):
+                return None                               # a goal of the strategy's own, again
+            frontiers = rest
 
     def _measure_speed(self, now: float, pose: tuple) -> None:
         """The robot's speed from this tick's pose and the last one's (``Motion.speed_mps``), at
