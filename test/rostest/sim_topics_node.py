@@ -21,7 +21,7 @@ TOPICS = {
     "/camera/image_raw": (Image, 5.0, "camera_optical"),
     "/camera/camera_info": (CameraInfo, 5.0, "camera_optical"),
     "/sim/ground_truth": (Odometry, 10.0, "world"),
-    "/clock": (Clock, 50.0, None),                # config/sim_bridge.yaml clock_rate_hz
+    "/clock": (Clock, 20.0, None),                # config/sim_bridge.yaml clock_rate_hz
 }
 
 

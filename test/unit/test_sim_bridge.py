@@ -81,3 +81,26 @@ def test_clock_stamps_land_on_the_timers_deadlines():
     # rtf 0 waiting for the navigator, sat out its wait; to the nearest ns every step is exact
     assert all(convert.stamp(k * 0.01).to_nsec() == k * 10_000_000 for k in range(100_000))
     assert convert.stamp(2.4).to_nsec() == 2_400_000_000
+
+
+def test_every_sim_time_timer_period_is_whole_clock_periods():
+    import yaml
+    from turtlebot_recon.paths import SHARE_DIR
+    cfg = {name: yaml.safe_load((SHARE_DIR / "config" / f"{name}.yaml").read_text())
+           for name in ("sim_bridge", "navigator", "explorer", "mapper", "evaluator", "slam", "tag_tracker",
+                        "trajectory")}
+    clock_s = 1.0 / cfg["sim_bridge"]["clock_rate_hz"]
+    # the periods the nodes give ros/timer.Timer; a sim-time timer fires only on a /clock tick,
+    # so a period between ticks would fire late (a 0.05 s one at 0.04 and 0.06 s with 50 Hz)
+    periods = {"navigator controller": 1.0 / cfg["navigator"]["controller_rate_hz"],
+               "explorer supervisor": 1.0 / cfg["explorer"]["supervisor_rate_hz"],
+               "explorer cycle": cfg["explorer"]["cycle_period_s"],
+               "mapper": 1.0 / cfg["mapper"]["publish_rate_hz"],
+               "evaluator sample": cfg["evaluator"]["sample_period_s"],
+               "evaluator ate": cfg["evaluator"]["ate_period_s"],
+               "slam tf": 1.0 / cfg["slam"]["tf_rate_hz"],
+               "tag_tracker": 1.0 / cfg["tag_tracker"]["publish_rate_hz"],
+               "trajectory": 1.0 / cfg["trajectory"]["sample_rate_hz"]}
+    for name, period in periods.items():
+        ticks = period / clock_s
+        assert ticks == pytest.approx(round(ticks)) and round(ticks) >= 1, f"{name}: {period} s"

@@ -71,7 +71,7 @@ class SimSettings:
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
     camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
     ground_truth_rate_hz: float = 10.0
-    clock_rate_hz: float = 50.0          # /clock (per sim s), at most physics_hz: every node with
+    clock_rate_hz: float = 20.0          # /clock (per sim s), at most physics_hz: every node with
                                          # use_sim_time handles each message
     seed: int = 0
 
