@@ -25,6 +25,7 @@ class ExploreTrap(unittest.TestCase):
         self.truth = None
         self.farthest_m = 0.0
         self.closed_for = None           # the goal (world) pending when the door closed
+        self.goal = None                 # the explorer's latest goal (world)
         self.done = None
         self.pub = rospy.Publisher("sim/add_obstacle", PolygonStamped, queue_size=1, latch=True)
         rospy.Subscriber("sim/ground_truth", Odometry, self.on_truth, queue_size=10)
@@ -39,20 +40,29 @@ class ExploreTrap(unittest.TestCase):
         with self.lock:
             self.truth = (p.x, p.y)
             self.farthest_m = max(self.farthest_m, math.hypot(p.x - self.start[0], p.y - self.start[1]))
+        self.maybe_close()
 
     def on_goal(self, msg):
         sx, sy, syaw = self.start         # explore/goal is in odom = the start pose
         gx, gy = msg.pose.position.x, msg.pose.position.y
-        wx = sx + math.cos(syaw) * gx - math.sin(syaw) * gy
-        wy = sy + math.sin(syaw) * gx + math.cos(syaw) * gy
         with self.lock:
-            if self.closed_for is not None or self.truth is None or not self.in_room_c(wx, wy):
+            self.goal = (sx + math.cos(syaw) * gx - math.sin(syaw) * gy,
+                         sy + math.sin(syaw) * gx + math.cos(syaw) * gy)
+        self.maybe_close()
+
+    def maybe_close(self):
+        """Close the door while the goal pursued lies in C and the robot is outside C, clear of
+        the doorway (the explorer keeps a goal until it is reached or seen: the robot may be
+        near the door when it is sent, and clear of it a moment later)."""
+        with self.lock:
+            if self.closed_for is not None or self.truth is None or self.goal is None \
+                    or not self.in_room_c(*self.goal):
                 return
             x, y = self.truth
             cx, cy = 0.5 * (self.door[0] + self.door[2]), 0.5 * (self.door[1] + self.door[3])
             if self.in_room_c(x, y) or math.hypot(x - cx, y - cy) < 0.9:
                 return                    # not while the robot is in C or in the doorway
-            self.closed_for = (wx, wy)
+            self.closed_for = wx, wy = self.goal
         box = PolygonStamped()
         box.header.frame_id, box.header.stamp = "world", rospy.Time.now()
         x0, y0, x1, y1 = self.door
