@@ -398,6 +398,21 @@ def test_recon_tour_outlives_its_first_goal(corridor, col, side):
     assert Recon().choose(rest, c, GoalBook()).id == 2   # a fresh tour goes to C first
 
 
+def test_recon_tour_stays_within_its_cluster_budget_as_the_map_gains_clusters(corridor):
+    """tour_max_clusters 4: the first tour holds 4 clusters; four more are born nearer the
+    robot (a map event): the next tour holds 4 again, the pursued one among them (2 from the
+    last tour, in its order, then the cheapest first legs), not the last tour's 4 plus the 4
+    cheapest (a tour kept whole grew with every cluster the map gained: 130 Dijkstras a cycle
+    in a large warehouse)."""
+    ctx, at = corridor
+    s, book = Recon(Recon.Settings(tour_max_clusters=4)), GoalBook()
+    first = s.choose(at(10, 20, 200, 220), ctx, book)
+    assert len(s.last_tour) == 4 and s.last_tour[0] == first.goal
+    book.start(first, ctx)
+    s.choose(at(10, 20, 200, 220, 40, 50, 70, 80), ctx, book)
+    assert s.plans == 2 and len(s.last_tour) == 4 and first.goal in s.last_tour
+
+
 def test_recon_switch_cost_grows_with_speed(corridor):
     """Stopping from speed v and getting back to it loses v / a: at 0.25 m/s and 2.5 m/s^2,
     0.1 s; the switch that a standing robot makes by 0.05 s, a moving one does not."""
