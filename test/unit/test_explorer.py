@@ -433,6 +433,26 @@ def test_done_ends_with_the_reason_and_stays_done():
     assert a.actions == b.actions == [] and b.done is None and not a.cycled
 
 
+def test_a_wedged_robot_recovers_instead_of_finishing():
+    """The burger boxed in by a ring of wall 3 cells from its centre (every neighbour within
+    its radius of a wall): the field holds its own cell only. Two empty cycles would finish
+    the run; pinned cycles do not count: the supervisor climbs its ladder, one line says why."""
+    grid = strip(left_unknown=False, right_unknown=False)
+    occ = grid.data.copy()
+    occ[17:24, 27:34] = 100
+    occ[18:23, 28:33] = FREE
+    run = Run(grid=Grid(occ, RES, (0.0, 0.0)),
+              supervisor=SupervisorSettings(spin_angle_deg=0.0, finish_empty_cycles=2, return_home=False))
+    states = set()
+    for _ in range(40):
+        a, b = run.tick()
+        states.add(run.ex.supervisor.state)
+        assert b.done is None
+    assert run.ex.pinned and not run.ex.done
+    assert states & {"NUDGE", "BUMPER_BACKOFF", "DRIFT"}
+    assert run.lines("explorer: the robot at (1.52, 1.02) reaches no cell off its footprint")
+
+
 # ------------------------------------------------------------------------------ helpers
 
 def test_free_space_is_the_last_cycles_passable_known_space():

@@ -435,6 +435,23 @@ def test_finish_after_10_empty_explorer_cycles_not_9():
     assert run.sup.finished_reason == "no reachable frontier for 10 explorer cycles"
 
 
+def test_a_pinned_cycle_does_not_count_toward_the_finish_and_climbs_the_ladder():
+    """9 empty cycles, then the robot is found wedged (pinned): that cycle is no evidence that
+    nothing is left to see. The supervisor recovers (NUDGE: no free point around a wedged
+    robot -> BUMPER_BACKOFF) instead of finishing, and the count stands at 9."""
+    run = Run(start=(0.0, 0.0, 0.0), free_space=lambda x, y: False, scan_clearance=uniform_scan(2.0))
+    run.pose = [2.0, 0.0, 0.0]
+    run.tick(goal_available=True, explorer_cycle=0)
+    for k in range(1, 10):
+        run.tick(goal_available=False, explorer_cycle=k)
+    assert run.state == EXPLORE and run.sup.empty_cycles == 9
+    run.tick(goal_available=False, explorer_cycle=10, pinned=True)
+    assert run.state == BUMPER_BACKOFF and run.sup.empty_cycles == 9 and run.sup.finished_reason is None
+    for _ in range(3):                       # the same cycle seen again: nothing more
+        run.tick(goal_available=False, explorer_cycle=10, pinned=True)
+    assert run.sup.rung == 2
+
+
 def test_a_cycle_with_a_frontier_resets_the_count():
     run = Run()
     run.tick()

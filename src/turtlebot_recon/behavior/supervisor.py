@@ -16,7 +16,10 @@ nothing blocks. A node (later) turns Inputs from topics and Commands into topics
   ``finish_empty_cycles`` consecutive explorer cycles without a reachable frontier (seed 004:
   10), i.e. with nothing reachable left to see (a frontier is reachable while a cell the
   robot reaches sees some of it: ``frontiers.detect``), or when ``time_budget_s`` has passed
-  since the first tick.
+  since the first tick. A cycle that finds the robot pinned (it reaches no cell off its own
+  footprint, ``Inputs.pinned``) says nothing about what is left to see: it does not count,
+  and it climbs the ladder at once (the house's tag search ended at 74 % of its walls with
+  the robot wedged beside a pillar, the lattice reaching 3 cells).
 - Stuck watchdog (seed 004: moved < 0.3 m in 10 s) while the robot should move (EXPLORE or
   RETURN_HOME with the navigator active, NUDGE, DRIFT) escalates one rung of the ladder:
   NUDGE -> BUMPER_BACKOFF -> DRIFT -> blacklist. A rung that succeeds returns to the mission
@@ -142,6 +145,8 @@ class Inputs:
     explore_goal: Optional[tuple] = None   # the explorer's current goal (x, y[, yaw]), if any
     explorer_cycle: Optional[int] = None   # the explorer cycle goal_available belongs to;
                                            # None: every tick is a cycle
+    pinned: bool = False                   # that cycle found the robot reaching no cell off its
+                                           # own footprint: nothing can be planned from here
 
     def __post_init__(self):
         if self.nav not in NAV_STATUSES:
@@ -271,6 +276,9 @@ class Supervisor:
     def _update_explore(self, inp: Inputs) -> None:
         if inp.explorer_cycle is None or inp.explorer_cycle != self._last_cycle:
             self._last_cycle = inp.explorer_cycle
+            if inp.pinned:
+                self._escalate("pinned: the robot reaches no cell off its footprint")
+                return
             self.empty_cycles = 0 if inp.goal_available else self.empty_cycles + 1
         n = self.settings.finish_empty_cycles
         if self.empty_cycles >= n:

@@ -280,6 +280,7 @@ class Explorer:
         self.phase = "map"
         self.view: Optional[View] = None                    # the tag search's view pursued
         self._no_frontier = 0                               # cycles in a row without a frontier goal
+        self.pinned = False                                 # the last cycle's field: wedged
         self.speed_mps = 0.0                                # from the last two ticks' poses
         self._last_pose: Optional[Tuple[float, tuple]] = None   # (t, pose) of the last tick
 
@@ -332,7 +333,7 @@ class Explorer:
             now_s=inp.now_s, pose=inp.pose, nav=self._nav_before_cycle,
             goal_available=self.goal_available, bumper=inp.bumper, free_space=self.free_space,
             scan_clearance=inp.scan_clearance, explore_goal=active.goal if active else None,
-            explorer_cycle=self.cycles))
+            explorer_cycle=self.cycles, pinned=self.pinned))
         self._apply(cmd, inp.now_s, inp.pose)
         if self.supervisor.state != self.state:
             self.state = out.state = self.supervisor.state
@@ -489,6 +490,11 @@ class Explorer:
         # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
         # prefer goals further from walls where there is room
         self.ctx, self.frontiers = ctx, frontiers
+        self.pinned = self._pinned(field, res)
+        if self.pinned:
+            self._log_throttled(10.0, now, INFO, "explorer: the robot at (%.2f, %.2f) reaches no cell off its "
+                                "footprint (%d cells): recovering, not finishing", pose[0], pose[1],
+                                int(np.isfinite(field).sum()))
         self._check_active_goal(ctx, frontiers, now)
         self.choice = self._choose(frontiers, ctx)
         self.cycles += 1
@@ -516,6 +522,12 @@ class Explorer:
         active = self.book.active
         self._out.frontiers = FrontierView(frontiers, res, origin, active.goal if active else None,
                                            getattr(self.strategy, "last_tour", []), pose[:2], now)
+
+    def _pinned(self, field: np.ndarray, resolution: float) -> bool:
+        """The field from the robot's pose holds no more cells than its footprint covers: it
+        is wedged (a box beside a pillar, every lattice move and escape arc blocked), and no
+        goal anywhere tells what is left to see (the supervisor recovers instead of finishing)."""
+        return int(np.isfinite(field).sum()) * resolution ** 2 <= math.pi * self.robot.radius_m ** 2
 
     def _tag_view(self, ctx: Context, unconfirmed: Sequence, now: float) -> Optional[View]:
         """The tag search's next view (mission tags, no frontier goal left); its coverage map
