@@ -453,6 +453,19 @@ def test_a_wedged_robot_recovers_instead_of_finishing():
     assert run.lines("explorer: the robot at (1.52, 1.02) reaches no cell off its footprint")
 
 
+def test_a_robot_the_lattice_cannot_place_is_not_wedged():
+    """The pose off the map: the field is empty (not the robot's own cell alone): that is no
+    sign of a wedged robot, and the empty cycles finish the run as before."""
+    run = Run(grid=strip(left_unknown=False, right_unknown=False), pose=(10.0, 10.0, 0.0),
+              supervisor=SupervisorSettings(spin_angle_deg=0.0, finish_empty_cycles=2, return_home=False))
+    for _ in range(30):
+        a, b = run.tick()
+        if b.done is not None:
+            break
+    assert b.done == "no reachable frontier for 2 explorer cycles" and not run.ex.pinned
+    assert not run.lines("reaches no cell off its footprint")
+
+
 # ------------------------------------------------------------------------------ helpers
 
 def test_free_space_is_the_last_cycles_passable_known_space():

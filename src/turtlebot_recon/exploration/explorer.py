@@ -524,10 +524,13 @@ class Explorer:
                                            getattr(self.strategy, "last_tour", []), pose[:2], now)
 
     def _pinned(self, field: np.ndarray, resolution: float) -> bool:
-        """The field from the robot's pose holds no more cells than its footprint covers: it
-        is wedged (a box beside a pillar, every lattice move and escape arc blocked), and no
-        goal anywhere tells what is left to see (the supervisor recovers instead of finishing)."""
-        return int(np.isfinite(field).sum()) * resolution ** 2 <= math.pi * self.robot.radius_m ** 2
+        """The field from the robot's pose reaches its own cell and no more cells than its
+        footprint covers: it is wedged (a box beside a pillar, every lattice move and escape arc
+        blocked), and no goal anywhere tells what is left to see (the supervisor recovers
+        instead of finishing). An empty field is not that: the lattice could not place the
+        robot on this map at all (the first map after the spin did that once)."""
+        cells = int(np.isfinite(field).sum())
+        return 0 < cells and cells * resolution ** 2 <= math.pi * self.robot.radius_m ** 2
 
     def _tag_view(self, ctx: Context, unconfirmed: Sequence, now: float) -> Optional[View]:
         """The tag search's next view (mission tags, no frontier goal left); its coverage map
