@@ -490,11 +490,11 @@ class Explorer:
         # inscribed radius is the circumscribed one); frontiers.max_cost only makes detect
         # prefer goals further from walls where there is room
         self.ctx, self.frontiers = ctx, frontiers
-        self.pinned = self._pinned(field, res)
+        field_cells = int(np.isfinite(field).sum())
+        self.pinned = self._pinned(field_cells, res)
         if self.pinned:
             self._log_throttled(10.0, now, INFO, "explorer: the robot at (%.2f, %.2f) reaches no cell off its "
-                                "footprint (%d cells): recovering, not finishing", pose[0], pose[1],
-                                int(np.isfinite(field).sum()))
+                                "footprint (%d cells): recovering, not finishing", pose[0], pose[1], field_cells)
         self._check_active_goal(ctx, frontiers, now)
         self.choice = self._choose(frontiers, ctx)
         self.cycles += 1
@@ -523,13 +523,12 @@ class Explorer:
         self._out.frontiers = FrontierView(frontiers, res, origin, active.goal if active else None,
                                            getattr(self.strategy, "last_tour", []), pose[:2], now)
 
-    def _pinned(self, field: np.ndarray, resolution: float) -> bool:
-        """The field from the robot's pose reaches its own cell and no more cells than its
-        footprint covers: it is wedged (a box beside a pillar, every lattice move and escape arc
-        blocked), and no goal anywhere tells what is left to see (the supervisor recovers
+    def _pinned(self, cells: int, resolution: float) -> bool:
+        """The field from the robot's pose (finite in ``cells`` cells) reaches its own cell and no
+        more cells than its footprint covers: it is wedged (a box beside a pillar, every lattice
+        move and escape arc blocked), and no goal anywhere tells what is left to see (the supervisor recovers
         instead of finishing). An empty field is not that: the lattice could not place the
         robot on this map at all (the first map after the spin did that once)."""
-        cells = int(np.isfinite(field).sum())
         return 0 < cells and cells * resolution ** 2 <= math.pi * self.robot.radius_m ** 2
 
     def _tag_view(self, ctx: Context, unconfirmed: Sequence, now: float) -> Optional[View]:

@@ -74,8 +74,8 @@ class Recon:
     first half of the last tour's remaining clusters, in its order, then the cheapest first
     legs (the tour's tail beyond that is planned again when the robot gets there: a tour kept
     whole grew with every cluster the map gained, to 130 Dijkstras a cycle, 3-5 s of wall
-    time, in the 1,280 m^2 warehouse, and the robot stood through half of the run). Small gains are not set aside for
-    later: a small frontier (a dead end's last cells, a corner) costs little while the robot
+    time, in the 1,280 m^2 warehouse, and the robot stood through half of the run). Small
+    gains are not set aside for later: a small frontier (a dead end's last cells, a corner) costs little while the robot
     is near it and a long trip back at the end (keeping gains under 0.1 m^2 for last cost
     about 20 % of the time to 99 % in the maze).
     """
@@ -110,7 +110,8 @@ class Recon:
             return None
         radius_m = book.settings.reevaluate_radius_m
         points = [_points(f, ctx) for f in cands]
-        pursued = _pursued(book, points, radius_m)
+        nearest = _nearest_cluster(points)
+        pursued = _pursued(book, nearest, radius_m)
         if pursued is not None and not self._event(points, cands[pursued], radius_m):
             return _keep(cands[pursued], book, ctx)
         self.plans += 1
@@ -118,7 +119,7 @@ class Recon:
         self._pursued_gain = cands[pursued].gain if pursued is not None else 0
         legs = np.array([self.first_leg(f, ctx) for f in cands])
         # the last tour, as far as its clusters remain, the pursued one first
-        old = _matches(self._tour, points, radius_m)
+        old = _matches(self._tour, nearest, radius_m)
         if pursued is not None:
             old = [pursued] + [i for i in old if i != pursued]
         old = old[:max(1, s.tour_max_clusters // 2)]
@@ -169,15 +170,13 @@ class Recon:
         return first_s > switch_s and kept_s - new_s > switch_s
 
 
-def _matches(tour_points: Sequence[np.ndarray], points: Sequence[np.ndarray], radius_m: float) -> List[int]:
+def _matches(tour_points: Sequence[np.ndarray], nearest, radius_m: float) -> List[int]:
     """The clusters of the last tour that remain, in its order: for each, the current cluster
-    nearest to most of its cells within radius_m (each current cluster once)."""
+    nearest to most of its cells within radius_m (``nearest``: ``_nearest_cluster`` of the
+    current clusters; each current cluster once)."""
     out: List[int] = []
-    if not tour_points or not points:
-        return out
-    labels = _nearest_cluster(points)
     for old in tour_points:
-        counts = labels(old, radius_m)
+        counts = nearest(old, radius_m)
         if out:
             counts[out] = 0
         best = int(np.argmax(counts))
@@ -229,12 +228,13 @@ def _points(f: Frontier, ctx: Context) -> np.ndarray:
                             ctx.origin[1] + (cells[:, 0] + 0.5) * ctx.resolution])
 
 
-def _pursued(book: GoalBook, points: Sequence[np.ndarray], radius_m: float) -> Optional[int]:
-    """The candidate nearest to most of the pursued goal's frontier cells (within radius_m), or None."""
+def _pursued(book: GoalBook, nearest, radius_m: float) -> Optional[int]:
+    """The candidate nearest to most of the pursued goal's frontier cells (within radius_m;
+    ``nearest``: ``_nearest_cluster`` of the candidates), or None."""
     active = book.active
     if active is None or len(active.frontier_points) == 0:
         return None
-    counts = _nearest_cluster(points)(active.frontier_points, radius_m)
+    counts = nearest(active.frontier_points, radius_m)
     best = int(np.argmax(counts))
     return best if counts[best] > 0 else None
 
