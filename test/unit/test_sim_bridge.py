@@ -5,7 +5,7 @@ import math
 import pytest
 
 from turtlebot_recon.robot import load_robot
-from turtlebot_recon.sim.bridge import CommandSync, Pacer, WallShares, footprint_outline, relative_to_start
+from turtlebot_recon.sim.bridge import CommandSync, CycleSync, Pacer, WallShares, footprint_outline, relative_to_start
 
 
 def test_pacer_holds_sim_time_to_rtf_times_wall_time():
@@ -36,6 +36,28 @@ def test_command_sync_waits_only_at_rtf_0_while_moving_on_an_old_command():
     assert sync.wait_for_s(6.2, 0.2, 0.0) == 1.0
     assert CommandSync(rtf=1.0, age_s=0.11, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
     assert CommandSync(rtf=0.0, age_s=0.0, wait_s=1.0).wait_for_s(9.0, 0.2, 0.0) == 0.0
+
+
+def test_cycle_sync_holds_the_step_past_a_due_cycle_until_its_node_speaks():
+    sync = CycleSync(rtf=0.0, slack_s=0.1, wait_s=5.0)
+    assert sync.blocking(100.0) is None               # nobody said anything: nothing to wait for
+    sync.announced("/explorer", 12.0)                 # its next cycle is due at 12 s
+    assert sync.blocking(12.1) is None                # within the slack: the cycle may start
+    assert sync.blocking(12.15) == "/explorer"        # past it: wait for that cycle
+    sync.announced("/explorer", 13.0)                 # it ran and says when the next is due
+    assert sync.blocking(12.15) is None
+    sync.announced("/other", 12.5)                    # every node that speaks is waited for
+    assert sync.blocking(12.7) == "/other"
+    sync.gave_up("/other")                            # its wait ran out: step on without it
+    assert sync.blocking(12.7) is None
+    sync.announced("/explorer", 0.0)                  # done: no cycle due any more
+    assert sync.blocking(1e6) is None
+    off = CycleSync(rtf=1.0, slack_s=0.1, wait_s=5.0)  # a real-time run pays its cycles
+    off.announced("/explorer", 1.0)
+    assert off.blocking(50.0) is None
+    never = CycleSync(rtf=0.0, slack_s=0.1, wait_s=0.0)
+    never.announced("/explorer", 1.0)
+    assert never.blocking(50.0) is None
 
 
 def test_wall_shares_per_sim_second_largest_first():

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from typing import Optional
 
 from ..geometry import wrap_angle
 from ..robot import RobotSpec
@@ -56,6 +57,36 @@ class CommandSync:
         if not (self.on and self._waits and moving) or now_s - self._last_s < self.age_s:
             return 0.0
         return self.wait_s
+
+
+class CycleSync:
+    """rtf 0: a node that works in cycles of sim time (the explorer) says after each cycle when
+    its next one is due (sim s; ``math.inf``: none). The bridge steps no further than ``slack_s``
+    past the earliest due time until that node says again, waiting at most ``wait_s`` of wall
+    time (after a wait runs out, not again until that node speaks): its cycle then costs no sim
+    time, as the controller's step costs none (CommandSync), and a run's sim times do not
+    depend on how busy the machine is. Not at rtf > 0: a real robot's computer pays its cycles."""
+
+    def __init__(self, rtf: float, slack_s: float, wait_s: float):
+        self.on = rtf <= 0 and wait_s > 0
+        self.slack_s, self.wait_s = slack_s, wait_s
+        self._due: dict[str, float] = {}
+
+    def announced(self, node: str, due_s: float) -> None:
+        self._due[node] = due_s if due_s > 0 and math.isfinite(due_s) else math.inf
+
+    def blocking(self, now_s: float) -> Optional[str]:
+        """The node whose due cycle holds the step at ``now_s``; None: step."""
+        if not self.on:
+            return None
+        for node, due_s in self._due.items():
+            if now_s > due_s + self.slack_s:
+                return node
+        return None
+
+    def gave_up(self, node: str) -> None:
+        """A wait for ``node`` ran out: step on without it until it speaks again."""
+        self._due[node] = math.inf
 
 
 class WallShares:

@@ -61,6 +61,10 @@ class SimSettings:
                                          # once the last is this old (sim s): one period of the
                                          # navigator's 10 Hz loop and a physics step; 0 = never
     cmd_sync_wait_s: float = 1.0         # ... for at most this long (wall s), then run on
+    cycle_sync_slack_s: float = 0.1      # rtf 0 only: step at most this far (sim s) past the time a
+                                         # node's next cycle is due (sim/next_cycle: the explorer's)
+                                         # until it has run, so a cycle costs no sim time
+    cycle_sync_wait_s: float = 5.0       # ... waiting at most this long (wall s); 0 = never wait
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
     odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
                                          # TurtleBot3's OpenCR firmware and kobuki_node's default
@@ -81,6 +85,8 @@ class SimSettings:
         require(self.clock_rate_hz <= self.physics_hz, src, "clock_rate_hz", "must be <= physics_hz")
         require(self.cmd_sync_age_s >= 0.0, src, "cmd_sync_age_s", "must be >= 0 (0 = never wait)")
         require(self.cmd_sync_wait_s >= 0.0, src, "cmd_sync_wait_s", "must be >= 0")
+        require(self.cycle_sync_slack_s >= 0.0, src, "cycle_sync_slack_s", "must be >= 0")
+        require(self.cycle_sync_wait_s >= 0.0, src, "cycle_sync_wait_s", "must be >= 0 (0 = never wait)")
         require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
         require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
         require(self.odom_heading in ("gyro", "wheels"), src, "odom_heading",
