@@ -24,12 +24,28 @@ robust kernel (the graph's), so one wrong closure cannot wreck the map.
 
 The map frame is the odom frame as it was when the first scan came (the start pose):
 ``map_to_odom`` is the identity until the first correction.
+
+Real logs (issue 31), what the graph is protected from:
+
+* stale odometry: a base's odometry can repeat one pose for several scans and then catch up
+  (the MIT CSAIL log: up to 1 s). Odometry is judged to have jumped from the time its previous
+  value was first seen, not from the previous scan (``OdometryWatch``), and never over less
+  than the scan period (a log whose stamps bunch scans 1 ms apart);
+* a real jump (a glitch, a base restart): the step across it is replaced by the step before it
+  (constant velocity) with that step's size as its std, the later odometry rebased onto it; no
+  loose tie that would leave the graph nearly indeterminate behind it;
+* a step whose duration is zero or negative (stamps out of order) has no gyro samples: its
+  heading is the wheels', never a zero-variance gyro's;
+* a scan with no return on any beam is counted and skipped;
+* should iSAM2 still refuse a step (``PoseGraph.update`` raises ValueError, the graph intact),
+  the keyframe is kept on its odometry alone, or, refused again, dropped; one line each.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -42,6 +58,9 @@ from .scan_matching import MatcherSettings, ScanMatcher
 
 MAX_PLAUSIBLE_SPEED_MPS = 2.0     # odometry moving faster than this between scans jumped
 MAX_PLAUSIBLE_TURN_RADPS = 10.0   # (a teleport, a reset to zero when the base restarts)
+MAX_ODOMETRY_STALL_S = 2.0        # odometry repeating one pose is credited this long at most as a
+                                  # stalled driver catching up (longer: a robot standing still)
+SCAN_PERIODS_KEPT = 50            # scan intervals the scan period's median is taken over
 
 
 @dataclass(frozen=True)
@@ -100,7 +119,12 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     the wheel-slip model: each wheel's travel error has variance slip^2 * |its travel|, so
     forward travel d and turn a give var(d) = (vl + vr) / 4, var(a) = (vl + vr) / B^2 and
     cov(d, a) = (vr - vl) / (2B); the heading error then swings the end point sideways
-    (var(y) ~ d^2 var(a) / 3 for a heading error growing along the step). Floors are added."""
+    (var(y) ~ d^2 var(a) / 3 for a heading error growing along the step: d / 2 times the end
+    heading's error, plus d^2 var(a) / 12 of its own), and the travel error, correlated with the
+    turn's, with it: cov(x, y) = d cov(d, a) / 2. So the covariance is J S J^T + diag(0, d^2
+    var(a) / 12, 0), S the (d, a) covariance: positive semi-definite for any step (without the
+    x-y term, a step that turns while it travels, 0.9 m and 0.9 rad, had a negative
+    eigenvalue). Floors are added."""
     d = math.hypot(delta[0], delta[1])
     a = float(delta[2])
     half = 0.5 * separation_m * a
@@ -109,8 +133,8 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     var_d = 0.25 * (vl + vr)
     var_a = (vl + vr) / separation_m ** 2
     cov_da = (vr - vl) / (2.0 * separation_m)
-    cov = np.array([[var_d, 0.0, cov_da],
-                    [0.0, d * d * var_a / 3.0, 0.5 * d * var_a],
+    cov = np.array([[var_d, 0.5 * d * cov_da, cov_da],
+                    [0.5 * d * cov_da, d * d * var_a / 3.0, 0.5 * d * var_a],
                     [cov_da, 0.5 * d * var_a, var_a]])
     return cov + np.diag([s.odom_floor_std_m ** 2, s.odom_floor_std_m ** 2, s.odom_floor_std_rad ** 2])
 
@@ -152,6 +176,42 @@ class GyroScale:
         return True
 
 
+class OdometryWatch:
+    """Whether each scan's odometry pose jumped from the previous scan's: a step faster than
+    MAX_PLAUSIBLE_SPEED_MPS / MAX_PLAUSIBLE_TURN_RADPS over the time since the previous pose was
+    first seen (a stalled driver repeats it, then catches up; credited up to
+    MAX_ODOMETRY_STALL_S), and never over less than the median scan period (stamps that bunch
+    or go back)."""
+
+    def __init__(self):
+        self.last: Optional[tuple] = None      # (stamp first seen, pose) of the current odometry value
+        self.last_stamp_s: Optional[float] = None
+        self.periods: deque = deque(maxlen=SCAN_PERIODS_KEPT)
+        self.step = np.zeros(3)                # the last plausible scan-to-scan step (body frame)
+
+    def period_s(self) -> float:
+        return float(np.median(self.periods)) if self.periods else 1e-3
+
+    def jumped(self, stamp_s: float, odom: np.ndarray) -> bool:
+        if self.last_stamp_s is not None and stamp_s > self.last_stamp_s:
+            self.periods.append(stamp_s - self.last_stamp_s)
+        self.last_stamp_s = stamp_s
+        if self.last is None:
+            self.last = (stamp_s, odom)
+            return False
+        t0, p0 = self.last
+        if np.array_equal(p0, odom):
+            return False
+        self.last = (stamp_s, odom)
+        d = between(p0, odom)
+        dt = max(min(stamp_s - t0, MAX_ODOMETRY_STALL_S), self.period_s())
+        if math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
+                or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1:
+            return True
+        self.step = d
+        return False
+
+
 class Slam:
     def __init__(self, settings: SlamSettings, wheel_separation_m: float):
         self.s = settings
@@ -166,9 +226,11 @@ class Slam:
         self.gyro_scale = GyroScale(settings.gyro_scale_std)
         self._step_gyro = None                  # (raw gyro turn, its white-noise variance) of the step
         self.last_odom = None                   # (stamp, pose) of the last scan seen
-        self.odom_jumped = False
+        self.odom_watch = OdometryWatch()
+        self._jump_var: Optional[np.ndarray] = None   # variance added to the step across a jump
         self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
-                           loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0)
+                           loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0,
+                           scans_no_return=0, refused=0, keyframes_dropped=0)
         self.update_ms: list[float] = []
         self.match_ms: list[float] = []
         self.events: list[str] = []             # one line per thing a caller should log once
@@ -181,6 +243,8 @@ class Slam:
         self.estimates = np.zeros((0, 3))
         self.gyro.clear()
         self.last_odom = None
+        self.odom_watch = OdometryWatch()
+        self._jump_var = None
         self.counts["resets"] += 1
         self.events.append(f"state cleared: {why}")
 
@@ -190,14 +254,19 @@ class Slam:
 
     def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose) -> bool:
         """A scan (points in the base frame, (n, 2)) with the odometry pose at its stamp.
-        Returns whether it became a keyframe (the graph was updated then)."""
+        Returns whether it became a keyframe (the graph was updated then). A scan without a
+        point (no return on any beam) is counted and left out."""
         odom = np.asarray(odom_pose, float)
         if not np.isfinite(odom).all():
             self.events.append(f"odometry pose not finite {odom.tolist()}: scan at {stamp_s:.2f} s skipped")
             return False
-        jumped = self._odom_jumped(stamp_s, odom)
-        self.last_odom = (stamp_s, odom)
+        jumped = self.odom_watch.jumped(stamp_s, odom)
+        previous, self.last_odom = self.last_odom, (stamp_s, odom)
+        points_base = np.asarray(points_base, float).reshape(-1, 2)
         if self.graph is None:
+            if not len(points_base):
+                self.counts["scans_no_return"] += 1
+                return False
             # the map frame is the odom frame as it was at the start: the first keyframe sits at
             # its odometry pose (map -> odom starts as the identity)
             self.graph = PoseGraph(self.s.graph, first_pose=tuple(odom))
@@ -206,21 +275,31 @@ class Slam:
             return True
         last = self.keyframes[-1]
         if jumped:
-            # Odometry can no longer be trusted between the last keyframe and now: rebase the
-            # last keyframe's odometry so that the robot is assumed where it was, and let the
-            # scan match find the motion.
-            self.counts["odom_jumps"] += 1
-            self.events.append(f"odometry jumped to ({odom[0]:.2f}, {odom[1]:.2f}, {odom[2]:.2f}) at "
-                               f"{stamp_s:.2f} s: the scan match alone ties the next keyframe")
-            last.odom = odom.copy()
-            self.odom_jumped = True
-        delta = between(last.odom, odom)
-        if math.hypot(delta[0], delta[1]) < self.s.keyframe_distance_m and abs(delta[2]) < self.s.keyframe_angle_rad \
-                and not self.odom_jumped:
+            self._rebase(previous[1], odom)
+            self.events.append(f"odometry jumped to ({odom[0]:.2f}, {odom[1]:.2f}, {odom[2]:.2f}) at {stamp_s:.2f} s: "
+                               f"the step before it stands in for the step across it")
+        if not len(points_base):
+            self.counts["scans_no_return"] += 1
             return False
-        points_base = np.asarray(points_base, float).reshape(-1, 2)
-        self._keyframe(stamp_s, odom, points_base, delta)
-        return True
+        delta = between(last.odom, odom)
+        if math.hypot(delta[0], delta[1]) < self.s.keyframe_distance_m and abs(delta[2]) < self.s.keyframe_angle_rad:
+            return False
+        return self._keyframe(stamp_s, odom, points_base, delta)
+
+    def _rebase(self, before: np.ndarray, odom: np.ndarray) -> None:
+        """The odometry jumped from ``before`` (the previous scan's) to ``odom``: assume the robot
+        made the last plausible step in between (constant velocity) and move the last keyframe's
+        odometry pose into the new odometry frame accordingly; the next keyframe's step gets that
+        step's size as extra std (floored)."""
+        self.counts["odom_jumps"] += 1
+        step = self.odom_watch.step
+        correction = compose(odom, inverse(compose(before, step)))   # old odom frame -> new
+        last = self.keyframes[-1]
+        last.odom = compose(correction, last.odom)
+        d = max(math.hypot(step[0], step[1]), self.s.odom_floor_std_m)
+        a = max(abs(step[2]), self.s.odom_floor_std_rad)
+        var = np.array([d * d, d * d, a * a])
+        self._jump_var = var if self._jump_var is None else self._jump_var + var
 
     def add_tag(self, stamp_s: float, name: str, xy_base, covariance_xy) -> Optional[str]:
         """A tag seen at ``xy_base`` (base frame at ``stamp_s``): tied to the last keyframe
@@ -268,15 +347,6 @@ class Slam:
         return events
 
     # ------------------------------------------------------------------ internals
-    def _odom_jumped(self, stamp_s: float, odom: np.ndarray) -> bool:
-        if self.last_odom is None:
-            return False
-        t0, p0 = self.last_odom
-        dt = max(stamp_s - t0, 1e-3)
-        d = between(p0, odom)
-        return math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
-            or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1
-
     def _store(self, stamp_s, odom, points, estimate) -> None:
         self.keyframes.append(Keyframe(float(stamp_s), odom.copy(), np.asarray(points, float).reshape(-1, 2)))
         self.estimates = np.vstack([self.estimates, estimate])
@@ -288,9 +358,11 @@ class Slam:
         t0 = self.keyframes[-1].stamp_s
         raw, covered, samples = self._integrate_gyro(t0, stamp_s)
         self._step_gyro = None
-        if not self.s.use_imu or covered < (stamp_s - t0) - 1e-6:
-            return delta, cov        # a gap in the gyro's samples: wheel odometry alone
         span = stamp_s - t0
+        if not self.s.use_imu or samples == 0 or span <= 0.0 or covered < span - 1e-6:
+            # a gap in the gyro's samples, or a step of no duration (stamps out of order): no gyro
+            # sample measured its turn, wheel odometry alone
+            return delta, cov
         period = covered / max(1, samples)
         yaw_imu = self.gyro_scale.correct(raw)
         # white noise per sample over span / period samples, plus a bias held over the span and
@@ -345,24 +417,23 @@ class Slam:
                  for i, kf in zip(range(lo, hi), self.keyframes[lo:hi]) if len(kf.points)]
         return np.vstack(parts) if parts else np.zeros((0, 2))
 
-    def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> None:
+    def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> bool:
+        """A keyframe at this scan; whether it was kept (``_update``)."""
         prev = len(self.keyframes) - 1
         step, cov = self._fused_step(stamp_s, delta)
-        factors = []
-        jumped, self.odom_jumped = self.odom_jumped, False
-        if jumped:
-            # no odometry across the jump: a loose tie keeps the graph connected
-            factors.append((prev, np.zeros(3), np.diag([1.0, 1.0, math.pi ** 2])))
-            guess = self.estimates[prev]
-        else:
-            factors.append((prev, step, cov))
-            guess = compose(self.estimates[prev], step)
+        jumped = self._jump_var is not None
+        if jumped:               # the step spans an odometry jump: as uncertain as the step stood in
+            cov = cov + np.diag(self._jump_var)
+            self._jump_var = None
+        odometry = (prev, step, cov)
+        factors = [odometry]
+        guess = compose(self.estimates[prev], step)
         reference = self._submap(max(0, prev + 1 - self.s.submap_keyframes), prev + 1)
         t0 = time.perf_counter()
-        match = self.matcher.match(points, reference, guess) if len(points) else None
+        match = self.matcher.match(points, reference, guess)
         self.match_ms.append(1e3 * (time.perf_counter() - t0))
         if match is not None and match.score >= self.s.match_min_score:
-            if jumped or self._consistent(guess, cov, match):
+            if self._consistent(guess, cov, match):
                 factors.append((prev, between(self.estimates[prev], match.pose), match.covariance))
                 self.counts["matched"] += 1
                 self.counts["degenerate"] += int(match.degenerate)
@@ -380,8 +451,30 @@ class Slam:
         self._store(stamp_s, odom, points, guess)
         if key % self.s.loop_every_keyframes == 0:
             self._close_loop(key)
-        self.update_ms.append(self.graph.update())
+        return self._update(key, odometry)
+
+    def _update(self, key: int, odometry: tuple) -> bool:
+        """iSAM2 with keyframe ``key``'s factors (and a loop closure's). Refused (the graph is left
+        as it was before them), the keyframe is tied by its ``odometry`` factor alone; refused
+        again, it is dropped (the next scan makes a new one). One line each."""
+        try:
+            self.update_ms.append(self.graph.update())
+        except ValueError as exc:
+            self.counts["refused"] += 1
+            self.events.append(f"keyframe {key}: {exc}; kept on its odometry alone")
+            guess = compose(self.estimates[key - 1], odometry[1])
+            try:
+                self.graph.add_keyframe(guess, [odometry])
+                self.update_ms.append(self.graph.update())
+            except ValueError as again:
+                self.counts["keyframes_dropped"] += 1
+                self.counts["keyframes"] -= 1
+                self.keyframes.pop()
+                self.estimates = self.estimates[:key]
+                self.events.append(f"keyframe {key}: {again}; dropped")
+                return False
         self.estimates = self.graph.poses()
+        return True
 
     def _consistent(self, predicted, step_cov: np.ndarray, match) -> bool:
         """Whether the match agrees with odometry's prediction within match_gate_chi2 (both in
