@@ -73,6 +73,9 @@ class SlamSettings:
     odom_slip_std_sqrt_m: float = 0.03    # m / sqrt(m)
     odom_floor_std_m: float = 0.005       # m, added to x and y of every step
     odom_floor_std_rad: float = 0.005     # rad, added to the heading of every step
+    odom_turn_std_m_per_rad: float = 0.15  # m per rad turned, added to x and y: the scan's frame
+                                          # may sit off the turning centre (a log whose laser pose
+                                          # is its odometry pose: 0.1-0.16 m measured on two)
     use_imu: bool = True                  # fuse the gyro's yaw rate into each step's heading
     gyro_noise_std_radps: float = 0.002   # per IMU sample (the robot YAML's figure)
     gyro_bias_std_radps: float = 0.001    # unmodelled bias: adds (bias * step duration)^2
@@ -95,6 +98,7 @@ class SlamSettings:
     graph: GraphSettings = field(default_factory=GraphSettings)
 
     def validate(self, src: str) -> None:
+        require(self.odom_turn_std_m_per_rad >= 0, src, "odom_turn_std_m_per_rad", "must be >= 0")
         positive(src, self, "keyframe_distance_m", "keyframe_angle_rad", "submap_keyframes", "match_gate_chi2",
                  "odom_slip_std_sqrt_m", "odom_floor_std_m", "odom_floor_std_rad", "loop_every_keyframes",
                  "loop_min_gap_keyframes", "loop_radius_min_m", "loop_radius_max_m",
@@ -124,7 +128,8 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     turn's, with it: cov(x, y) = d cov(d, a) / 2. So the covariance is J S J^T + diag(0, d^2
     var(a) / 12, 0), S the (d, a) covariance: positive semi-definite for any step (without the
     x-y term, a step that turns while it travels, 0.9 m and 0.9 rad, had a negative
-    eigenvalue). Floors are added."""
+    eigenvalue). Floors are added, and (odom_turn_std_m_per_rad * a)^2 to x and y: a turn in
+    place moves a scan frame that sits off the turning centre by a chord of that lever."""
     d = math.hypot(delta[0], delta[1])
     a = float(delta[2])
     half = 0.5 * separation_m * a
@@ -136,7 +141,8 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     cov = np.array([[var_d, 0.5 * d * cov_da, cov_da],
                     [0.5 * d * cov_da, d * d * var_a / 3.0, 0.5 * d * var_a],
                     [cov_da, 0.5 * d * var_a, var_a]])
-    return cov + np.diag([s.odom_floor_std_m ** 2, s.odom_floor_std_m ** 2, s.odom_floor_std_rad ** 2])
+    lever = (s.odom_turn_std_m_per_rad * a) ** 2
+    return cov + np.diag([s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_rad ** 2])
 
 
 class GyroScale:
