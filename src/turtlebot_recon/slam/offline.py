@@ -182,6 +182,8 @@ def _write_slam(out: Path, slam: Slam, scans: dict, grid: GridSettings) -> None:
     g = make_grid(grid)
     layouts: dict = {}        # the keyframes' scans by beam layout (one lidar: one C++ call)
     for i, kf in enumerate(slam.keyframes):
+        if id(kf) not in scans:   # the keyframe a run stopped in the middle of
+            continue
         rec = scans[id(kf)][0]
         layouts.setdefault((len(rec.ranges), rec.angle_min, rec.angle_increment, rec.range_min, rec.range_max),
                            []).append(i)

@@ -193,7 +193,7 @@ class OdometryWatch:
         self.last: Optional[tuple] = None      # (stamp first seen, pose) of the current odometry value
         self.last_stamp_s: Optional[float] = None
         self.periods: deque = deque(maxlen=SCAN_PERIODS_KEPT)
-        self.step = np.zeros(3)                # the last plausible scan-to-scan step (body frame)
+        self.step = np.zeros(3)                # the last plausible step, over one scan period (body frame)
 
     def period_s(self) -> float:
         return float(np.median(self.periods)) if self.periods else 1e-3
@@ -214,7 +214,7 @@ class OdometryWatch:
         if math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
                 or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1:
             return True
-        self.step = d
+        self.step = d * min(1.0, self.period_s() / max(stamp_s - t0, 1e-9))   # a catch-up: its share of a period
         return False
 
 
