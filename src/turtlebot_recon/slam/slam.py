@@ -20,7 +20,11 @@ matched against a submap around the candidate with a wider window, accepted abov
 when the correction it makes is within the two poses' uncertainty (``match_gate_chi2`` on the
 sum of their marginals and the match's covariance: in a maze whose corridors repeat every metre,
 the window also holds the match one corridor over, which scores as well), and added with a
-robust kernel (the graph's), so one wrong closure cannot wreck the map.
+robust kernel (the graph's), so one wrong closure cannot wreck the map. A match that is degenerate (a
+corridor) is a closure too: it fixes the heading and the position across the corridor, and its
+covariance (degenerate_std_m along it) leaves the position along it to the rest of the graph; a
+corridor driven twice otherwise keeps both passes apart (the MIT CSAIL log: 169 of 505 loop
+matches were degenerate).
 
 The map frame is the odom frame as it was when the first scan came (the start pose):
 ``map_to_odom`` is the identity until the first correction.
@@ -93,7 +97,7 @@ class SlamSettings:
     loop_radius_min_m: float = 1.0        # search radius floor (m) ...
     loop_radius_max_m: float = 4.0        # ... and cap (m)
     loop_submap_half_keyframes: int = 6   # candidate's submap: keyframes j-N .. j+N
-    loop_min_score: float = 0.65          # accept a closure at or above this match score
+    loop_min_score: float = 0.5           # accept a closure at or above this match score
     loop_max_candidates: int = 2          # matches tried per search
     loop_search_xy_m: float = 1.0         # a loop closure's correlative window: half-width (m) ...
     loop_search_yaw_rad: float = 0.5      # ... and in yaw (rad); the rest as matcher's
@@ -567,7 +571,7 @@ class Slam:
             h = self.s.loop_submap_half_keyframes
             reference = self._submap(max(0, j - h), min(first_candidate, j + h + 1))
             match = self.loop_matcher.match(points, reference, here)
-            if match is None or match.degenerate or match.score < self.s.loop_min_score:
+            if match is None or match.score < self.s.loop_min_score:
                 continue
             if math.hypot(*(match.pose[:2] - here[:2])) > radius:
                 continue
