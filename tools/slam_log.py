@@ -4,7 +4,8 @@
     tools/slam_log.py --log FILE --output DIR [--robot NAME] [--config YAML] [--map YAML [--initial-pose X Y YAW]]
 
 FILE is a rosbag (``.bag``: /scan, /odom, optional /imu) or a CARMEN log (FLASER, ROBOTLASER1,
-ODOM lines). DIR receives trajectory.tum (keyframes, optimised), odometry.tum, map.pgm/.yaml and
+ODOM lines). DIR receives trajectory.tum (the pose at every scan, sorted by stamp: what the relations
+metric scores), keyframes.tum (the optimised keyframes), odometry.tum, map.pgm/.yaml and
 graph.g2o. The robot's YAML gives the wheel separation (odometry noise model) and, for a bag,
 the lidar's mounting. SLAM parameters: the ``slam:`` block of config/slam.yaml unless --config.
 With --map (``make slam-log MAP=...``) the log is tracked in that saved map instead (mode

@@ -1,7 +1,15 @@
 """The SLAM pipeline over a recorded log (``make slam-log``): a log reader's records in (a
 CARMEN log's ``slam.logs.CarmenReader``, a rosbag's ``ros.bags.BagReader``: anything that yields
-the records of ``slam.logs`` and has ``path`` and ``summary()``), the optimised keyframe
-trajectory, the odometry, the map and the graph out, as fast as the CPU allows.
+the records of ``slam.logs`` and has ``path`` and ``summary()``), the trajectory (the pose at
+every scan), the optimised keyframes, the odometry, the map and the graph out, as fast as the CPU
+allows.
+
+trajectory.tum holds a pose for every scan, as the relations metric (Kümmerle et al. 2009) asks
+for poses at scan stamps: a keyframe's optimised pose at its own stamp, and between two
+keyframes the odometry carried by the map -> odom correction of the two, blended by time
+(``scan_trajectory``). Interpolating the keyframes linearly instead put the Intel Lab log's
+scans 4.2 cm (mean; p90 10.6 cm, 5 deg) off that: keyframes come every 0.25 m or 15 deg, and the
+robot stops and turns between them. keyframes.tum holds the keyframes alone.
 
 Each scan needs the odometry pose at its stamp: a CARMEN laser line carries it; for a bag it is
 interpolated between the two /odom messages around the stamp (a scan outside them waits for
@@ -21,7 +29,7 @@ from typing import Optional
 import numpy as np
 
 from ..evaluation.trajectory_metrics import write_tum
-from ..geometry import between, compose, transform_points, wrap_angle
+from ..geometry import between, compose, inverse, transform_points, wrap_angle
 from ..mapping.grid import GridSettings, make_grid
 from ..mapping.map_io import load_map_as, save_map
 from .logs import ImuRecord, LaserRecord, OdomRecord, TimeJump
@@ -133,10 +141,45 @@ def _base_points(rec: LaserRecord, offset) -> np.ndarray:
     return transform_points(offset, pts)
 
 
+JUMP_GAP_M = 0.5     # a scan's pose carried from the two keyframes around it this far apart (m, or
+                     # rad in yaw): an odometry jump between them, the nearer keyframe's is taken
+
+
+def scan_trajectory(key_rows, key_poses, odometry) -> np.ndarray:
+    """(n, 4) ``t, x, y, yaw``, sorted by stamp: the map pose of each of the ``odometry`` rows
+    (``t, x, y, yaw``: the odometry at every scan, in the order the scans came) from the
+    keyframes' optimised ``key_poses``, keyframe k being the scan of row ``key_rows[k]``
+    (ascending). A scan between keyframes a and b is carried from each by the odometry since (or
+    until) it, ``pose_a = est_a (+) (odom_a^-1 (+) odom)``, and the two are blended by its place
+    between them in the scan order (stamps can be out of order: the Intel Lab log's 680), so a
+    keyframe's own scan lies on its pose and the odometry's drift over the step is spread along
+    it. Before the first keyframe and after the last, that keyframe's; across an odometry jump
+    (the two more than JUMP_GAP_M apart) the nearer keyframe's."""
+    odo = np.asarray(odometry, float).reshape(-1, 4)
+    rows = np.asarray(key_rows, int)
+    kp = np.asarray(key_poses, float).reshape(-1, 3)
+    if not len(odo) or not len(rows):
+        return np.zeros((0, 4))
+    i = np.arange(len(odo))
+    b = np.clip(np.searchsorted(rows, i, side="left"), 0, len(rows) - 1)
+    a = np.clip(np.searchsorted(rows, i, side="right") - 1, 0, len(rows) - 1)
+    kodo = odo[rows, 1:4]
+    pa = compose(kp[a], between(kodo[a], odo[:, 1:4]))
+    pb = compose(kp[b], between(kodo[b], odo[:, 1:4]))
+    span = rows[b] - rows[a]
+    f = np.where(span > 0, np.clip((i - rows[a]) / np.maximum(span, 1), 0.0, 1.0), 0.0)
+    d = np.column_stack([pb[:, :2] - pa[:, :2], wrap_angle(pb[:, 2] - pa[:, 2])])
+    f = np.where(np.max(np.abs(d), axis=1) > JUMP_GAP_M, np.round(f), f)
+    pose = pa + f[:, None] * d
+    pose[:, 2] = wrap_angle(pose[:, 2])
+    order = np.argsort(odo[:, 0], kind="stable")
+    return np.column_stack([odo[:, 0], pose])[order]
+
+
 def run_log(reader, output_dir, settings: SlamSettings = SlamSettings(), wheel_separation_m: float = 0.16,
             lidar_offset=(0.0, 0.0, 0.0), grid: GridSettings = GridSettings(), log=print) -> OfflineResult:
-    """SLAM over the records of ``reader``; writes trajectory.tum, odometry.tum, map.pgm/.yaml
-    and graph.g2o into ``output_dir``. Whatever stops the run before the log's end (an
+    """SLAM over the records of ``reader``; writes trajectory.tum (every scan), keyframes.tum,
+    odometry.tum, map.pgm/.yaml and graph.g2o into ``output_dir``. Whatever stops the run before the log's end (an
     exception anywhere in the pipeline), what it has is written and ``stopped`` says where and
     why. ValueError when the log gave no keyframe at all (odometry.tum is written then)."""
     out = Path(output_dir)
@@ -150,7 +193,7 @@ def run_log(reader, output_dir, settings: SlamSettings = SlamSettings(), wheel_s
     def use(rec: LaserRecord, pose, offset) -> None:
         odometry_rows.append((rec.stamp_s, *pose))
         if slam.add_scan(rec.stamp_s, _base_points(rec, offset), pose):
-            scans[id(slam.keyframes[-1])] = (rec, offset)
+            scans[id(slam.keyframes[-1])] = (rec, offset, len(odometry_rows) - 1)
 
     def reset(why: str) -> None:
         slam.reset(why)
@@ -168,16 +211,21 @@ def run_log(reader, output_dir, settings: SlamSettings = SlamSettings(), wheel_s
     if not slam.keyframes:
         raise ValueError(f"{reader.path}: no scan with odometry in the log ({reader.summary()})"
                          + (f"; {stopped}" if stopped else ""))
-    _write_slam(out, slam, scans, grid)
+    _write_slam(out, slam, scans, grid, odometry_rows)
     return OfflineResult(keyframes=len(slam.keyframes), scans=len(odometry_rows), scans_dropped=progress.dropped,
                          log_seconds=progress.log_seconds, wall_seconds=wall, resets=slam.counts["resets"],
                          stats=slam.stats(), log_summary=reader.summary(), stopped=stopped)
 
 
-def _write_slam(out: Path, slam: Slam, scans: dict, grid: GridSettings) -> None:
-    """trajectory.tum, graph.g2o and the map (the keyframes' scans at their estimates)."""
+def _write_slam(out: Path, slam: Slam, scans: dict, grid: GridSettings, odometry_rows: list) -> None:
+    """trajectory.tum (every scan), keyframes.tum, graph.g2o and the map (the keyframes' scans
+    at their estimates)."""
     stamps = np.array([k.stamp_s for k in slam.keyframes])
-    write_tum(out / "trajectory.tum", np.column_stack([stamps, slam.estimates]))
+    write_tum(out / "keyframes.tum", np.column_stack([stamps, slam.estimates]))
+    # the keyframes whose scan is known (not the one a run stopped in the middle of)
+    kept = [i for i, kf in enumerate(slam.keyframes) if id(kf) in scans]
+    write_tum(out / "trajectory.tum", scan_trajectory([scans[id(slam.keyframes[i])][2] for i in kept],
+                                                      slam.estimates[kept], odometry_rows))
     slam.graph.save_g2o(str(out / "graph.g2o"))
     g = make_grid(grid)
     layouts: dict = {}        # the keyframes' scans by beam layout (one lidar: one C++ call)
