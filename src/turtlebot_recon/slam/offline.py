@@ -151,7 +151,7 @@ def scan_trajectory(key_rows, key_poses, odometry) -> np.ndarray:
     keyframes' optimised ``key_poses``, keyframe k being the scan of row ``key_rows[k]``
     (ascending). A scan between keyframes a and b is carried from each by the odometry since (or
     until) it, ``pose_a = est_a (+) (odom_a^-1 (+) odom)``, and the two are blended by its place
-    between them in the scan order (stamps can be out of order: the Intel Lab log's 680), so a
+    between them in the scan order (not by stamp: a log's stamps can go back), so a
     keyframe's own scan lies on its pose and the odometry's drift over the step is spread along
     it. Before the first keyframe and after the last, that keyframe's; across an odometry jump
     (the two more than JUMP_GAP_M apart) the nearer keyframe's."""
