@@ -4,12 +4,16 @@
     tools/slam_log.py --log FILE --output DIR [--robot NAME] [--config YAML] [--map YAML [--initial-pose X Y YAW]]
 
 FILE is a rosbag (``.bag``: /scan, /odom, optional /imu) or a CARMEN log (FLASER, ROBOTLASER1,
-ODOM lines). DIR receives trajectory.tum (keyframes, optimised), odometry.tum, map.pgm/.yaml and
+ODOM lines). DIR receives trajectory.tum (the pose at every scan, sorted by stamp: what the relations
+metric scores), keyframes.tum (the optimised keyframes), odometry.tum, map.pgm/.yaml and
 graph.g2o. The robot's YAML gives the wheel separation (odometry noise model) and, for a bag,
 the lidar's mounting. SLAM parameters: the ``slam:`` block of config/slam.yaml unless --config.
 With --map (``make slam-log MAP=...``) the log is tracked in that saved map instead (mode
 localization, the ``localization:`` block): DIR receives trajectory.tum (the pose at every
 match) and odometry.tum. A log or a map that cannot be used: one line saying why, exit status 1.
+A run stopped before the log's end by any error still writes what it has, says in one line
+where it stopped, and exits with status 1; a log with bad lines is read around them (the
+summary counts them) and ends with status 0.
 """
 import argparse
 import sys
@@ -63,10 +67,16 @@ def main(argv=None) -> int:
               f"{result.wall_seconds:.1f} s ({result.speedup:.1f}x real time); written to {a.output}")
         return 0
     st = result.stats
-    print(f"slam_log: {result.scans} scans ({result.scans_dropped} without odometry), {result.keyframes} keyframes, "
-          f"loop closures {st['loop_accepted']} of {st['loop_tried']} accepted; {result.log_seconds:.0f} s of log "
-          f"in {result.wall_seconds:.1f} s ({result.speedup:.1f}x real time); iSAM2 median "
+    problems = "".join(f", {st[k]} {what}" for k, what in (
+        ("scans_no_return", "without a return"), ("odom_jumps", "odometry jumps"),
+        ("refused", "steps refused by iSAM2"), ("keyframes_dropped", "keyframes dropped")) if st.get(k))
+    print(f"slam_log: {result.scans} scans ({result.scans_dropped} without odometry{problems}), {result.keyframes} "
+          f"keyframes, loop closures {st['loop_accepted']} of {st['loop_tried']} accepted; {result.log_seconds:.0f} s "
+          f"of log in {result.wall_seconds:.1f} s ({result.speedup:.1f}x real time); iSAM2 median "
           f"{st.get('isam2_ms_median', float('nan')):.1f} ms; {result.log_summary}; written to {a.output}")
+    if result.stopped:
+        print(f"slam_log: {result.stopped}; what it had is written to {a.output}", file=sys.stderr)
+        return 1
     return 0
 
 

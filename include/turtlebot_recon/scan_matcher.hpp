@@ -93,6 +93,9 @@ struct MatcherParams {
   double degeneracy_ratio = 0.03;      // l_min / l_max of the translational information below
                                        // this: degenerate
   double degenerate_std_m = 1.0;       // m, std put on the degenerate direction
+  double max_range_m = 20.0;           // m, scan points farther than this from the sensor are not
+                                       // matched: it bounds the reference's grid whatever the
+                                       // laser reports (validate: the largest grid fits)
 };
 
 struct MatchResult {
@@ -124,8 +127,14 @@ constexpr double kMinLineExtent = 0.25;
 constexpr double kMaxSlideSteps = 4.0;
 constexpr double kMinSlideRad = 0.02;
 // Largest grid (cells, ~15 bytes each): a safety bound; cropped around the scan, a 3.5 m lidar
-// needs ~200 x 200.
+// needs ~200 x 200. validate() refuses parameters whose largest grid (max_range_m) exceeds it.
 constexpr long kMaxGridCells = 2000L * 2000L;
+
+// The largest grid side (cells) a match can need: the reference cropped to a disc around the
+// guess (crop_radius_m) plus the padding of build_grid.
+inline double crop_radius_m(const MatcherParams& p, double reach_m) {
+  return reach_m + std::sqrt(2.0) * p.search_xy_m + 2.0 * p.max_correspondence_m;
+}
 
 // Throws std::invalid_argument ("ScanMatcher: ...") naming the first bad parameter.
 inline void validate(const MatcherParams& p) {
@@ -152,6 +161,18 @@ inline void validate(const MatcherParams& p) {
   if (p.min_points < 3) fail("min_points must be >= 3 (three unknowns)");
   if (!(std::isfinite(p.degeneracy_ratio) && p.degeneracy_ratio >= 0 && p.degeneracy_ratio < 1))
     fail("degeneracy_ratio must be in [0, 1), got " + std::to_string(p.degeneracy_ratio));
+  positive(p.max_range_m, "max_range_m");
+  // The widest grid: the crop's diameter plus build_grid's padding (kernel, window, blocks).
+  const double res = p.grid_resolution_m;
+  const double pad = std::ceil(std::max({3.0 * std::max(p.sigma_m, res), p.max_correspondence_m,
+                                         p.normal_radius_m}) / res) +
+                     2.0 * (std::ceil(p.search_xy_m / res) + std::max(1.0, std::round(p.coarse_resolution_m / res)));
+  const double side = std::ceil(2.0 * crop_radius_m(p, p.max_range_m) / res) + 1.0 + 2.0 * pad;
+  if (side * side > static_cast<double>(kMaxGridCells))
+    fail("max_range_m " + std::to_string(p.max_range_m) + " with search_xy_m " + std::to_string(p.search_xy_m) +
+         " needs a grid of " + std::to_string(static_cast<long>(side)) + " cells a side, more than " +
+         std::to_string(static_cast<long>(std::sqrt(static_cast<double>(kMaxGridCells)))) +
+         ": a shorter max_range_m or a coarser grid_resolution_m");
 }
 
 // One matcher; its buffers are allocated by the first matches and reused by the next ones.
@@ -162,20 +183,24 @@ class ScanMatcher {
   const MatcherParams& params() const { return p_; }
 
   // scan: n (x, y) points in the scan's frame; reference: m (x, y) points in the map frame;
-  // both row-major and finite (the binding checks). Not ok, with the reason, when a side has
-  // fewer than min_points points, fewer than min_points pairs remain, ICP slides away from the
-  // coarse pose or the pairs leave the pose unconstrained.
-  MatchResult match(const double* scan, int n, const double* reference, int m, Pose2 guess) {
+  // both row-major and finite (the binding checks). Scan points beyond max_range_m are left
+  // out. Not ok, with the reason, when a side has fewer than min_points points, fewer than
+  // min_points pairs remain, ICP slides away from the coarse pose or the pairs leave the pose
+  // unconstrained.
+  MatchResult match(const double* scan, int n_all, const double* reference, int m, Pose2 guess) {
     MatchResult out;
-    if (n < p_.min_points)
-      return failed("too few scan points: " + std::to_string(n) + " < " +
-                    std::to_string(p_.min_points));
-    scan_.resize(n);
-    double reach = 0;  // farthest scan point from the sensor
-    for (int i = 0; i < n; ++i) {
-      scan_[i] = {scan[2 * i], scan[2 * i + 1]};
-      reach = std::max(reach, scan_[i].norm());
+    scan_.clear();
+    double reach = 0;  // farthest scan point used from the sensor
+    for (int i = 0; i < n_all; ++i) {
+      const Eigen::Vector2d q(scan[2 * i], scan[2 * i + 1]);
+      if (q.norm() > p_.max_range_m) continue;
+      scan_.push_back(q);
+      reach = std::max(reach, q.norm());
     }
+    const int n = static_cast<int>(scan_.size());
+    if (n < p_.min_points)
+      return failed("too few scan points within max_range_m: " + std::to_string(n) + " of " +
+                    std::to_string(n_all) + " < " + std::to_string(p_.min_points));
     crop_reference(reference, m, guess, reach);
     if (static_cast<int>(ref_.size()) < p_.min_points)
       return failed("too few reference points near the guess: " + std::to_string(ref_.size()) +
@@ -280,7 +305,7 @@ class ScanMatcher {
   // (plus ICP's slide and the pairing gate): the grid then spans the scan's surroundings, not
   // the whole map.
   void crop_reference(const double* reference, int m, const Pose2& guess, double reach) {
-    const double r = reach + std::sqrt(2.0) * p_.search_xy_m + 2.0 * p_.max_correspondence_m;
+    const double r = crop_radius_m(p_, reach);
     const Eigen::Vector2d c(guess.x, guess.y);
     ref_.clear();
     for (int j = 0; j < m; ++j) {

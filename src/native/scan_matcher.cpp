@@ -125,7 +125,7 @@ void register_slam(py::module_& m) {
                        double coarse_resolution_m, double coarse_yaw_step_rad, double sigma_m,
                        int icp_iterations, double max_correspondence_m, double normal_radius_m,
                        double huber_m, double inlier_m, int min_points, double degeneracy_ratio,
-                       double degenerate_std_m) {
+                       double degenerate_std_m, double max_range_m) {
              ts::MatcherParams p;
              p.search_xy_m = search_xy_m;
              p.search_yaw_rad = search_yaw_rad;
@@ -141,6 +141,7 @@ void register_slam(py::module_& m) {
              p.min_points = min_points;
              p.degeneracy_ratio = degeneracy_ratio;
              p.degenerate_std_m = degenerate_std_m;
+             p.max_range_m = max_range_m;
              return std::make_unique<LockedMatcher>(p);
            }),
            py::arg("search_xy_m"), py::arg("search_yaw_rad"),
@@ -152,7 +153,7 @@ void register_slam(py::module_& m) {
            py::arg("normal_radius_m"), py::arg("huber_m"),
            py::arg("inlier_m"), py::arg("min_points"),
            py::arg("degeneracy_ratio"),
-           py::arg("degenerate_std_m"))
+           py::arg("degenerate_std_m"), py::arg("max_range_m"))
       .def("match", &py_match, py::arg("points"), py::arg("reference"), py::arg("guess"),
            "Match points ((n, 2) float64, the scan's frame) to reference ((m, 2) float64, the\n"
            "map frame) from guess (x, y, yaw). Returns a ScanMatch; ok=False with a failure\n"

@@ -127,13 +127,16 @@ def test_imu_fusion_improves_the_heading(tmp_path):
 
 
 def test_odometry_covariance_follows_the_wheel_model():
-    s = SlamSettings(odom_floor_std_m=0.0, odom_floor_std_rad=0.0)
+    s = SlamSettings(odom_floor_std_m=0.0, odom_floor_std_rad=0.0, odom_turn_std_m_per_rad=0.0)
     straight = odometry_covariance((1.0, 0.0, 0.0), 0.16, s)
     assert straight[0, 0] == pytest.approx(0.5 * 0.03 ** 2)           # (vl + vr) / 4
     assert straight[2, 2] == pytest.approx(2 * 0.03 ** 2 / 0.16 ** 2)  # (vl + vr) / B^2
     turn = odometry_covariance((0.0, 0.0, 1.0), 0.16, s)
     assert turn[0, 0] < straight[0, 0] and turn[2, 2] > 0
     assert np.all(np.linalg.eigvalsh(odometry_covariance((0.3, 0.02, 0.2), 0.287, SlamSettings())) > 0)
+    # the scan's frame off the turning centre: a turn in place moves it by the lever's chord
+    lever = odometry_covariance((0.0, 0.0, 1.0), 0.16, SlamSettings(odom_floor_std_m=0.0, odom_floor_std_rad=0.0))
+    assert lever[1, 1] == pytest.approx(turn[1, 1] + 0.15 ** 2)
 
 
 def test_bad_input_is_reported_not_fatal():
@@ -142,13 +145,17 @@ def test_bad_input_is_reported_not_fatal():
     assert slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))                   # the first keyframe
     assert not slam.add_scan(0.2, pts, (float("nan"), 0.0, 0.0))
     assert "not finite" in slam.take_events()[0]
-    assert not slam.add_scan(0.4, np.zeros((0, 2)), (0.05, 0.0, 0.0))   # no points, not far yet
-    assert slam.add_scan(0.6, np.zeros((0, 2)), (0.3, 0.0, 0.0))        # odometry alone
+    assert not slam.add_scan(0.4, np.zeros((0, 2)), (0.05, 0.0, 0.0))   # no points: skipped, counted
+    assert not slam.add_scan(0.6, np.zeros((0, 2)), (0.3, 0.0, 0.0))    # far enough, still nothing seen
+    assert slam.counts["scans_no_return"] == 2
+    assert slam.add_scan(0.8, pts[:10], (0.35, 0.0, 0.0))               # too few points: odometry alone
     assert slam.counts["match_rejected"] == 1
-    # a teleport of the odometry (a base restart resets it to zero somewhere else)
-    assert slam.add_scan(0.8, pts, (-7.0, 3.0, 1.0))
+    # a teleport of the odometry (a base restart resets it to zero somewhere else): the step
+    # before it stands in for the step across it (0.05 m: no keyframe yet)
+    assert not slam.add_scan(1.0, pts, (-7.0, 3.0, 1.0))
     assert slam.counts["odom_jumps"] == 1 and "jumped" in slam.take_events()[0]
-    assert np.isfinite(slam.estimates).all() and len(slam.estimates) == 3
+    np.testing.assert_allclose(slam.pose((-7.0, 3.0, 1.0)), (0.4, 0.0, 0.0), atol=1e-9)
+    assert np.isfinite(slam.estimates).all() and len(slam.estimates) == 2
     slam.reset("time jumped back to 0.00 s")
     assert not slam.keyframes and slam.graph is None and slam.counts["resets"] == 1
     assert slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))

@@ -321,7 +321,7 @@ def test_a_failed_isam2_update_rebuilds_the_previous_graph():
     graph._isam = Failing(graph._isam)
     graph.add_keyframe((3.0, 0.0, 0.0), [(2, (1.0, 0.0, 0.0), ODOM_COV)])
     graph.add_loop(0, 3, (3.0, 0.0, 0.0), LOOP_COV)
-    with pytest.raises(ValueError, match="iSAM2 update failed .* dropped .* rebuilt"):
+    with pytest.raises(ValueError, match="iSAM2 refused the update .* dropped, the graph rebuilt"):
         graph.update()
     assert len(graph) == 3 and graph.loops() == []
     assert np.allclose(graph.poses()[:, 0], [0.0, 1.0, 2.0], atol=1e-9)

@@ -276,3 +276,47 @@ def test_recorded_runs_share_the_true_path(runs):
     a, b = read_tum(runs[0.0].ground_truth), read_tum(runs[0.02].ground_truth)
     assert a[0, 0] == pytest.approx(0.1) and np.allclose(a[0, 1:], 0.0, atol=0.01)   # starts at the origin
     assert np.array_equal(a, b)
+
+
+def test_a_lasers_own_no_return_value_is_recognised_from_the_data(tmp_path):
+    """The Intel Lab's SICK writes 81.83 m for no return, below the 81.9 m of the FLASER format:
+    the largest reading, repeated far more often than any value near it, is that laser's code."""
+    from turtlebot_recon.slam.logs import no_return_value
+    rng = np.random.default_rng(3)
+    walls = np.round(rng.uniform(0.2, 24.3, (200, 180)), 2).astype(np.float32)   # cm readings
+    seen = walls.copy()
+    seen[:, 60:70] = 81.83                    # 2000 beams that saw nothing
+    assert no_return_value(seen) == pytest.approx(81.83, abs=1e-5)
+    assert no_return_value(walls) is None     # no spike: the largest return is a return
+    # an LDS-01 that wrote its 3.5 m maximum for no return, among readings spread up to it
+    lds = np.round(rng.uniform(0.12, 3.5, (100, 360)), 3).astype(np.float32)
+    lds[:, :20] = 3.5
+    assert no_return_value(lds) == pytest.approx(3.5)
+    assert no_return_value(np.float32([81.83] * 5 + [2.0, 3.0])) is None     # too few to tell
+    # read from a log: those readings become +inf and the summary says so
+    angles = flaser_geometry(180)
+    records = [laser(1.0 + 0.2 * k, seen[k], angle_min=angles[0], inc=angles[1], range_max=81.9, range_min=0.0)
+               for k in range(30)]
+    path = tmp_path / "intel_like.clf"
+    write_carmen(path, records, flaser=True)
+    reader = CarmenReader(path)
+    back = list(reader)
+    assert all(np.isinf(r.ranges[60:70]).all() and np.isfinite(r.ranges[:60]).all() for r in back)
+    assert back[0].range_max == pytest.approx(81.83, abs=1e-5)
+    assert "no return at 81.83 m on the 180-beam laser (from the data: 300 readings)" in reader.summary()
+
+
+def test_stamps_that_jitter_keep_the_files_order(tmp_path):
+    """The Intel Lab's stamps go back up to 0.9 s between lines whose odometry moves on smoothly:
+    sorted by stamp, the robot would jump back and forth; the file's order is kept."""
+    rng = np.random.default_rng(5)
+    stamps = 10.0 + 0.13 * np.arange(40)
+    stamps[5::7] -= rng.uniform(0.3, 0.9, len(stamps[5::7]))        # every 7th line stamped early
+    lines = [f"ODOM {0.05 * k} 0.0 0.0 0.2 0.0 0.0 {t} host {t}" for k, t in enumerate(stamps)]
+    path = tmp_path / "jitter.clf"
+    path.write_text("\n".join(lines) + "\n")
+    reader = CarmenReader(path)
+    xs = [r.x for r in reader]
+    assert xs == sorted(xs) and len(xs) == 40
+    assert "the file's order kept" in reader.summary()
+    # lines merely logged late (the snippet's late ODOM) are still sorted: test_carmen_snippet

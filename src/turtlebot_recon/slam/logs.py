@@ -31,14 +31,22 @@ line, ``NAME fields... ipc_timestamp ipc_hostname logger_timestamp``.
 
 Time stamps are the ipc_timestamp (the sender's clock when the message was published), the
 standard choice of the tools that read these logs; the logger_timestamp (seconds since the
-logger started) is ignored. Lines are in arrival order, which is not always time order (intel.clf):
-the records are sorted by time stamp and the reordered ones counted. Ranges: a reading at or
-beyond the maximum range is CARMEN's "no return" and becomes +inf (REP 117), a reading <= 0
-becomes NaN; comments (``#``) and other messages (PARAM, SYNC, NMEA..., ROBOTLASER2) are
-counted and skipped.
+logger started) is ignored. Lines are in arrival order, which is not always time order: an ODOM
+line can be logged after a later laser line. Which order is the robot's is decided by the
+odometry, which moves continuously in time order: the records are sorted by time stamp (the
+reordered ones counted) unless the odometry's path is shorter in the file's order, as in a log
+whose stamps jitter by up to a second (the Intel Research Lab's, 265 stamps going back up to
+0.9 s, where sorting them sends the odometry back and forth); the file's order is then kept with
+the stamps as written, and said so in the summary. Ranges: a reading at or beyond the maximum
+range is CARMEN's "no return" and becomes +inf (REP 117), a reading <= 0 becomes NaN. A laser's
+own no-return value, when it is below the format's maximum (the Intel Lab's SICK writes 81.83 m),
+is recognised from the data (``no_return_value``: the largest reading, repeated far more often
+than any reading near it). Comments (``#``) and other messages (PARAM, SYNC, NMEA...,
+ROBOTLASER2) are counted and skipped.
 """
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import heapq
 import itertools
@@ -54,6 +62,10 @@ import numpy as np
 FLASER_RANGE_MAX_M = 81.9     # SICK LMS (the FLASER datasets' laser): 8191 cm is "no return"
 MESSAGE_NAME = re.compile(r"[A-Z][A-Z0-9_]*$")
 MAX_BEAMS = 100_000           # a count above this is a corrupted field, not a laser
+NO_RETURN_MIN_READINGS = 20   # a laser's largest reading is its "no return" code when it occurs
+                              # at least this often ...
+NO_RETURN_SPIKE_RATIO = 10.0  # ... and this many times more often than any other value within
+NO_RETURN_NEAR = 0.9          # this fraction below it (a real return: a spread of values)
 
 Pose = Tuple[float, float, float]
 
@@ -117,6 +129,8 @@ class LogStats:
         self.ignored: Counter = Counter()    # comment / message name / topic -> count (by design)
         self.first: dict = {}                # reason -> "where: what"
         self.reordered = 0
+        self.file_order_kept = ""            # why the file's order was kept over the stamps'
+        self.no_return: dict = {}            # laser (beams) -> (its no-return value m, readings)
         self.jumps: List[TimeJump] = []
 
     def skip(self, reason: str, where: str, detail: str) -> None:
@@ -131,7 +145,11 @@ class LogStats:
                 f"{n} {r} (first {self.first[r]})" for r, n in sorted(self.skipped.items())))
         if self.ignored:
             parts.append("ignored " + ", ".join(f"{n} {k}" for k, n in sorted(self.ignored.items())))
-        if self.reordered:
+        for beams, (value, count) in sorted(self.no_return.items()):
+            parts.append(f"no return at {value:.2f} m on the {beams}-beam laser (from the data: {count} readings)")
+        if self.file_order_kept:
+            parts.append(self.file_order_kept)
+        elif self.reordered:
             parts.append(f"{self.reordered} out of time order (sorted)")
         if self.jumps:
             j = self.jumps[0]
@@ -184,6 +202,34 @@ def _ranges(tokens: list, range_max: float) -> np.ndarray:
     return np.where(r > 0.0, r, np.nan).astype(np.float32)
 
 
+def no_return_value(readings) -> Optional[float]:
+    """A laser's own "no return" reading (m) recognised in its readings (any shape, all the
+    scans of one laser), or None: the largest finite reading when it occurs at least
+    NO_RETURN_MIN_READINGS times and NO_RETURN_SPIKE_RATIO times more often than any other single
+    value within NO_RETURN_NEAR of it. A return's range is spread over many values (a wall seen
+    from a moving robot); a code the laser writes when nothing came back is one value, repeated
+    on every beam that saw nothing, and above all the real ones."""
+    r = np.asarray(readings, np.float32).ravel()
+    with np.errstate(invalid="ignore"):
+        r = r[np.isfinite(r) & (r > 0.0)]
+    if r.size == 0:
+        return None
+    top = r.max()
+    at_top = int(np.count_nonzero(r == top))
+    near = r[(r >= NO_RETURN_NEAR * top) & (r < top)]
+    runner_up = int(np.unique(near, return_counts=True)[1].max()) if near.size else 0
+    if at_top < NO_RETURN_MIN_READINGS or at_top < NO_RETURN_SPIKE_RATIO * runner_up:
+        return None
+    return float(top)
+
+
+def _odometry_path_m(records: list) -> float:
+    """The length (m) of the path the odometry poses of ``records`` trace in their order."""
+    xy = np.array([(r.x, r.y) if isinstance(r, OdomRecord) else r.odom_pose[:2] for r in records
+                   if isinstance(r, OdomRecord) or getattr(r, "odom_pose", None) is not None], float)
+    return float(np.hypot(*np.diff(xy, axis=0).T).sum()) if len(xy) > 1 else 0.0
+
+
 def flaser_geometry(n: int) -> Tuple[float, float]:
     """(angle_min, angle_increment) rad of an n-beam FLASER scan: 180° from -90°."""
     return -0.5 * math.pi, math.pi / (n - 1 if n % 2 else n)
@@ -220,10 +266,46 @@ class CarmenReader:
                         records.append(rec)
         except (OSError, EOFError) as e:   # a gzip cut short: keep what was read
             self.stats.skip("unreadable", "file", str(e))
-        records.sort(key=lambda r: r.stamp_s)   # stable: ties keep the file's order
+        records = self._time_order(records)
+        records = self._no_return(records)
         for rec in records:
             self.stats.kept[type(rec).__name__] += 1
             yield rec
+
+    def _time_order(self, records: list) -> list:
+        """The records sorted by stamp (stable), unless the odometry's path is shorter in the
+        file's order (see the module doc)."""
+        by_stamp = sorted(records, key=lambda r: r.stamp_s)
+        if self.stats.reordered:
+            in_file, in_stamps = _odometry_path_m(records), _odometry_path_m(by_stamp)
+            if in_file < in_stamps:
+                self.stats.file_order_kept = (
+                    f"{self.stats.reordered} stamps out of order: the file's order kept (the odometry travels "
+                    f"{in_file:.1f} m in it, {in_stamps:.1f} m in stamp order)")
+                return records
+        return by_stamp
+
+    def _no_return(self, records: list) -> list:
+        """Each laser's readings at or above its own no-return value (``no_return_value``) made
+        +inf, its range_max that value."""
+        lasers: dict = {}
+        for i, r in enumerate(records):
+            if isinstance(r, LaserRecord):
+                lasers.setdefault((len(r.ranges), r.angle_min, r.angle_increment), []).append(i)
+        for (beams, _, _), idx in lasers.items():
+            value = no_return_value(np.stack([records[i].ranges for i in idx]))
+            if value is None:
+                continue
+            count = 0
+            for i in idx:
+                r = records[i]
+                with np.errstate(invalid="ignore"):
+                    none = r.ranges >= np.float32(value)
+                count += int(np.count_nonzero(none))
+                records[i] = dataclasses.replace(r, ranges=np.where(none, np.float32(np.inf), r.ranges),
+                                                 range_max=min(r.range_max, value))
+            self.stats.no_return[beams] = (value, count)
+        return records
 
     def _line(self, line: str, lineno: int) -> Optional[Record]:
         tokens = line.split()

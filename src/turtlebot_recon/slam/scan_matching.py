@@ -50,6 +50,9 @@ class MatcherSettings:
     degeneracy_ratio: float = 0.03      # smallest / largest eigenvalue of the translational
                                         # information below this: degenerate (a corridor)
     degenerate_std_m: float = 1.0       # m, std put on the degenerate direction: odometry rules it
+    max_range_m: float = 20.0           # m, scan points farther from the sensor are not matched: it
+                                        # bounds the reference's grid whatever a log's laser reports
+                                        # (SICK logs: 80 m; C++ refuses a value whose grid is too big)
 
     def __post_init__(self):
         self.validate("MatcherSettings")
@@ -57,7 +60,7 @@ class MatcherSettings:
     def validate(self, src: str) -> None:
         positive(src, self, "search_xy_m", "grid_resolution_m", "coarse_resolution_m",
                  "coarse_yaw_step_rad", "sigma_m", "max_correspondence_m", "normal_radius_m",
-                 "huber_m", "inlier_m", "degenerate_std_m")
+                 "huber_m", "inlier_m", "degenerate_std_m", "max_range_m")
         require(isinstance(self.search_yaw_rad, (int, float))
                 and 0.0 <= self.search_yaw_rad <= math.pi, src, "search_yaw_rad",
                 f"must be in [0, pi] rad, got {self.search_yaw_rad!r}")

@@ -20,16 +20,36 @@ matched against a submap around the candidate with a wider window, accepted abov
 when the correction it makes is within the two poses' uncertainty (``match_gate_chi2`` on the
 sum of their marginals and the match's covariance: in a maze whose corridors repeat every metre,
 the window also holds the match one corridor over, which scores as well), and added with a
-robust kernel (the graph's), so one wrong closure cannot wreck the map.
+robust kernel (the graph's), so one wrong closure cannot wreck the map. A match that is degenerate (a
+corridor) is a closure too: it fixes the heading and the position across the corridor, and its
+covariance (degenerate_std_m along it) leaves the position along it to the rest of the graph; a
+corridor driven twice otherwise keeps both passes apart (the MIT CSAIL log: 169 of 505 loop
+matches were degenerate).
 
 The map frame is the odom frame as it was when the first scan came (the start pose):
 ``map_to_odom`` is the identity until the first correction.
+
+Real logs (issue 31), what the graph is protected from:
+
+* stale odometry: a base's odometry can repeat one pose for several scans and then catch up
+  (the MIT CSAIL log: up to 1 s). Odometry is judged to have jumped from the time its previous
+  value was first seen, not from the previous scan (``OdometryWatch``), and never over less
+  than the scan period (a log whose stamps bunch scans 1 ms apart);
+* a real jump (a glitch, a base restart): the step across it is replaced by the step before it
+  (constant velocity) with that step's size as its std, the later odometry rebased onto it; no
+  loose tie that would leave the graph nearly indeterminate behind it;
+* a step whose duration is zero or negative (stamps out of order) has no gyro samples: its
+  heading is the wheels', never a zero-variance gyro's;
+* a scan with no return on any beam is counted and skipped;
+* should iSAM2 still refuse a step (``PoseGraph.update`` raises ValueError, the graph intact),
+  the keyframe is kept on its odometry alone, or, refused again, dropped; one line each.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -42,6 +62,9 @@ from .scan_matching import MatcherSettings, ScanMatcher
 
 MAX_PLAUSIBLE_SPEED_MPS = 2.0     # odometry moving faster than this between scans jumped
 MAX_PLAUSIBLE_TURN_RADPS = 10.0   # (a teleport, a reset to zero when the base restarts)
+MAX_ODOMETRY_STALL_S = 2.0        # odometry repeating one pose is credited this long at most as a
+                                  # stalled driver catching up (longer: a robot standing still)
+SCAN_PERIODS_KEPT = 50            # scan intervals the scan period's median is taken over
 
 
 @dataclass(frozen=True)
@@ -54,6 +77,12 @@ class SlamSettings:
     odom_slip_std_sqrt_m: float = 0.03    # m / sqrt(m)
     odom_floor_std_m: float = 0.005       # m, added to x and y of every step
     odom_floor_std_rad: float = 0.005     # rad, added to the heading of every step
+    odom_turn_std_m_per_rad: float = 0.15  # m per rad turned, added to x and y: the scan's frame
+                                          # may sit off the turning centre (a log whose laser pose
+                                          # is its odometry pose: 0.1-0.16 m measured on two)
+    odom_timing_std_s: float = 0.05       # s, std of the time between a scan and the odometry pose
+                                          # given for it (a driver's latency, unsynchronised clocks):
+                                          # each end of a step is off by its velocity times this
     use_imu: bool = True                  # fuse the gyro's yaw rate into each step's heading
     gyro_noise_std_radps: float = 0.002   # per IMU sample (the robot YAML's figure)
     gyro_bias_std_radps: float = 0.001    # unmodelled bias: adds (bias * step duration)^2
@@ -68,7 +97,7 @@ class SlamSettings:
     loop_radius_min_m: float = 1.0        # search radius floor (m) ...
     loop_radius_max_m: float = 4.0        # ... and cap (m)
     loop_submap_half_keyframes: int = 6   # candidate's submap: keyframes j-N .. j+N
-    loop_min_score: float = 0.65          # accept a closure at or above this match score
+    loop_min_score: float = 0.5           # accept a closure at or above this match score
     loop_max_candidates: int = 2          # matches tried per search
     loop_search_xy_m: float = 1.0         # a loop closure's correlative window: half-width (m) ...
     loop_search_yaw_rad: float = 0.5      # ... and in yaw (rad); the rest as matcher's
@@ -76,6 +105,8 @@ class SlamSettings:
     graph: GraphSettings = field(default_factory=GraphSettings)
 
     def validate(self, src: str) -> None:
+        require(self.odom_turn_std_m_per_rad >= 0, src, "odom_turn_std_m_per_rad", "must be >= 0")
+        require(self.odom_timing_std_s >= 0, src, "odom_timing_std_s", "must be >= 0")
         positive(src, self, "keyframe_distance_m", "keyframe_angle_rad", "submap_keyframes", "match_gate_chi2",
                  "odom_slip_std_sqrt_m", "odom_floor_std_m", "odom_floor_std_rad", "loop_every_keyframes",
                  "loop_min_gap_keyframes", "loop_radius_min_m", "loop_radius_max_m",
@@ -93,6 +124,7 @@ class Keyframe:
     stamp_s: float
     odom: np.ndarray          # (3,) odometry pose at the scan (odom frame)
     points: np.ndarray        # (n, 2) scan points in the base frame
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))   # odometry's (vx, vy, yaw rate), body frame
 
 
 def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarray:
@@ -100,7 +132,13 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     the wheel-slip model: each wheel's travel error has variance slip^2 * |its travel|, so
     forward travel d and turn a give var(d) = (vl + vr) / 4, var(a) = (vl + vr) / B^2 and
     cov(d, a) = (vr - vl) / (2B); the heading error then swings the end point sideways
-    (var(y) ~ d^2 var(a) / 3 for a heading error growing along the step). Floors are added."""
+    (var(y) ~ d^2 var(a) / 3 for a heading error growing along the step: d / 2 times the end
+    heading's error, plus d^2 var(a) / 12 of its own), and the travel error, correlated with the
+    turn's, with it: cov(x, y) = d cov(d, a) / 2. So the covariance is J S J^T + diag(0, d^2
+    var(a) / 12, 0), S the (d, a) covariance: positive semi-definite for any step (without the
+    x-y term, a step that turns while it travels, 0.9 m and 0.9 rad, had a negative
+    eigenvalue). Floors are added, and (odom_turn_std_m_per_rad * a)^2 to x and y: a turn in
+    place moves a scan frame that sits off the turning centre by a chord of that lever."""
     d = math.hypot(delta[0], delta[1])
     a = float(delta[2])
     half = 0.5 * separation_m * a
@@ -109,10 +147,28 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     var_d = 0.25 * (vl + vr)
     var_a = (vl + vr) / separation_m ** 2
     cov_da = (vr - vl) / (2.0 * separation_m)
-    cov = np.array([[var_d, 0.0, cov_da],
-                    [0.0, d * d * var_a / 3.0, 0.5 * d * var_a],
+    cov = np.array([[var_d, 0.5 * d * cov_da, cov_da],
+                    [0.5 * d * cov_da, d * d * var_a / 3.0, 0.5 * d * var_a],
                     [cov_da, 0.5 * d * var_a, var_a]])
-    return cov + np.diag([s.odom_floor_std_m ** 2, s.odom_floor_std_m ** 2, s.odom_floor_std_rad ** 2])
+    lever = (s.odom_turn_std_m_per_rad * a) ** 2
+    return cov + np.diag([s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_rad ** 2])
+
+
+def timing_covariance(delta, velocity_start, velocity_end, timing_std_s: float) -> np.ndarray:
+    """The covariance an odometry step ``delta`` (x, y, yaw in its first pose's frame) gains
+    when the odometry pose given with a scan is the robot's pose at a time off by std
+    ``timing_std_s``, independently at both ends: each end is displaced along its own velocity
+    (vx, vy, yaw rate in that pose's body frame), (v dt, w dt), so the step's covariance gains
+    tau^2 (a a^T + b b^T), a and b the two velocities in the first pose's frame. A log whose
+    odometry and laser clocks drift apart (the MIT CSAIL log: per 0.21 s scan interval, the
+    odometry's turn is off by 1.0 deg at 0-5 deg/s and 4-6 deg above 30 deg/s, its travel by
+    6 mm standing and 5 cm at 1 m/s, against a constant 0.4-0.8 deg and 6-7 mm on the Intel
+    Lab's) has errors that grow with the speed, which no constant floor models."""
+    c, s = math.cos(delta[2]), math.sin(delta[2])
+    a = np.asarray(velocity_start, float)
+    ve = np.asarray(velocity_end, float)
+    b = np.array([c * ve[0] - s * ve[1], s * ve[0] + c * ve[1], ve[2]])
+    return timing_std_s ** 2 * (np.outer(a, a) + np.outer(b, b))
 
 
 class GyroScale:
@@ -152,6 +208,46 @@ class GyroScale:
         return True
 
 
+class OdometryWatch:
+    """Whether each scan's odometry pose jumped from the previous scan's: a step faster than
+    MAX_PLAUSIBLE_SPEED_MPS / MAX_PLAUSIBLE_TURN_RADPS over the time since the previous pose was
+    first seen (a stalled driver repeats it, then catches up; credited up to
+    MAX_ODOMETRY_STALL_S), and never over less than the median scan period (stamps that bunch
+    or go back)."""
+
+    def __init__(self):
+        self.last: Optional[tuple] = None      # (stamp first seen, pose) of the current odometry value
+        self.last_stamp_s: Optional[float] = None
+        self.periods: deque = deque(maxlen=SCAN_PERIODS_KEPT)
+        self.step = np.zeros(3)                # the last plausible step, over one scan period (body frame)
+
+    def period_s(self) -> float:
+        return float(np.median(self.periods)) if self.periods else 1e-3
+
+    def velocity(self) -> np.ndarray:
+        """The odometry's last plausible velocity (vx, vy, yaw rate; m/s, rad/s, body frame)."""
+        return self.step / self.period_s() if self.periods else np.zeros(3)
+
+    def jumped(self, stamp_s: float, odom: np.ndarray) -> bool:
+        if self.last_stamp_s is not None and stamp_s > self.last_stamp_s:
+            self.periods.append(stamp_s - self.last_stamp_s)
+        self.last_stamp_s = stamp_s
+        if self.last is None:
+            self.last = (stamp_s, odom)
+            return False
+        t0, p0 = self.last
+        if np.array_equal(p0, odom):
+            return False
+        self.last = (stamp_s, odom)
+        d = between(p0, odom)
+        dt = max(min(stamp_s - t0, MAX_ODOMETRY_STALL_S), self.period_s())
+        if math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
+                or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1:
+            return True
+        self.step = d * min(1.0, self.period_s() / max(stamp_s - t0, 1e-9))   # a catch-up: its share of a period
+        return False
+
+
 class Slam:
     def __init__(self, settings: SlamSettings, wheel_separation_m: float):
         self.s = settings
@@ -166,9 +262,11 @@ class Slam:
         self.gyro_scale = GyroScale(settings.gyro_scale_std)
         self._step_gyro = None                  # (raw gyro turn, its white-noise variance) of the step
         self.last_odom = None                   # (stamp, pose) of the last scan seen
-        self.odom_jumped = False
+        self.odom_watch = OdometryWatch()
+        self._jump_var: Optional[np.ndarray] = None   # variance added to the step across a jump
         self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
-                           loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0)
+                           loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0,
+                           scans_no_return=0, refused=0, keyframes_dropped=0)
         self.update_ms: list[float] = []
         self.match_ms: list[float] = []
         self.events: list[str] = []             # one line per thing a caller should log once
@@ -181,6 +279,8 @@ class Slam:
         self.estimates = np.zeros((0, 3))
         self.gyro.clear()
         self.last_odom = None
+        self.odom_watch = OdometryWatch()
+        self._jump_var = None
         self.counts["resets"] += 1
         self.events.append(f"state cleared: {why}")
 
@@ -190,14 +290,19 @@ class Slam:
 
     def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose) -> bool:
         """A scan (points in the base frame, (n, 2)) with the odometry pose at its stamp.
-        Returns whether it became a keyframe (the graph was updated then)."""
+        Returns whether it became a keyframe (the graph was updated then). A scan without a
+        point (no return on any beam) is counted and left out."""
         odom = np.asarray(odom_pose, float)
         if not np.isfinite(odom).all():
             self.events.append(f"odometry pose not finite {odom.tolist()}: scan at {stamp_s:.2f} s skipped")
             return False
-        jumped = self._odom_jumped(stamp_s, odom)
-        self.last_odom = (stamp_s, odom)
+        jumped = self.odom_watch.jumped(stamp_s, odom)
+        previous, self.last_odom = self.last_odom, (stamp_s, odom)
+        points_base = np.asarray(points_base, float).reshape(-1, 2)
         if self.graph is None:
+            if not len(points_base):
+                self.counts["scans_no_return"] += 1
+                return False
             # the map frame is the odom frame as it was at the start: the first keyframe sits at
             # its odometry pose (map -> odom starts as the identity)
             self.graph = PoseGraph(self.s.graph, first_pose=tuple(odom))
@@ -206,21 +311,31 @@ class Slam:
             return True
         last = self.keyframes[-1]
         if jumped:
-            # Odometry can no longer be trusted between the last keyframe and now: rebase the
-            # last keyframe's odometry so that the robot is assumed where it was, and let the
-            # scan match find the motion.
-            self.counts["odom_jumps"] += 1
-            self.events.append(f"odometry jumped to ({odom[0]:.2f}, {odom[1]:.2f}, {odom[2]:.2f}) at "
-                               f"{stamp_s:.2f} s: the scan match alone ties the next keyframe")
-            last.odom = odom.copy()
-            self.odom_jumped = True
-        delta = between(last.odom, odom)
-        if math.hypot(delta[0], delta[1]) < self.s.keyframe_distance_m and abs(delta[2]) < self.s.keyframe_angle_rad \
-                and not self.odom_jumped:
+            self._rebase(previous[1], odom)
+            self.events.append(f"odometry jumped to ({odom[0]:.2f}, {odom[1]:.2f}, {odom[2]:.2f}) at {stamp_s:.2f} s: "
+                               f"the step before it stands in for the step across it")
+        if not len(points_base):
+            self.counts["scans_no_return"] += 1
             return False
-        points_base = np.asarray(points_base, float).reshape(-1, 2)
-        self._keyframe(stamp_s, odom, points_base, delta)
-        return True
+        delta = between(last.odom, odom)
+        if math.hypot(delta[0], delta[1]) < self.s.keyframe_distance_m and abs(delta[2]) < self.s.keyframe_angle_rad:
+            return False
+        return self._keyframe(stamp_s, odom, points_base, delta)
+
+    def _rebase(self, before: np.ndarray, odom: np.ndarray) -> None:
+        """The odometry jumped from ``before`` (the previous scan's) to ``odom``: assume the robot
+        made the last plausible step in between (constant velocity) and move the last keyframe's
+        odometry pose into the new odometry frame accordingly; the next keyframe's step gets that
+        step's size as extra std (floored)."""
+        self.counts["odom_jumps"] += 1
+        step = self.odom_watch.step
+        correction = compose(odom, inverse(compose(before, step)))   # old odom frame -> new
+        last = self.keyframes[-1]
+        last.odom = compose(correction, last.odom)
+        d = max(math.hypot(step[0], step[1]), self.s.odom_floor_std_m)
+        a = max(abs(step[2]), self.s.odom_floor_std_rad)
+        var = np.array([d * d, d * d, a * a])
+        self._jump_var = var if self._jump_var is None else self._jump_var + var
 
     def add_tag(self, stamp_s: float, name: str, xy_base, covariance_xy) -> Optional[str]:
         """A tag seen at ``xy_base`` (base frame at ``stamp_s``): tied to the last keyframe
@@ -268,29 +383,26 @@ class Slam:
         return events
 
     # ------------------------------------------------------------------ internals
-    def _odom_jumped(self, stamp_s: float, odom: np.ndarray) -> bool:
-        if self.last_odom is None:
-            return False
-        t0, p0 = self.last_odom
-        dt = max(stamp_s - t0, 1e-3)
-        d = between(p0, odom)
-        return math.hypot(d[0], d[1]) > MAX_PLAUSIBLE_SPEED_MPS * dt + 0.05 \
-            or abs(d[2]) > MAX_PLAUSIBLE_TURN_RADPS * dt + 0.1
-
     def _store(self, stamp_s, odom, points, estimate) -> None:
-        self.keyframes.append(Keyframe(float(stamp_s), odom.copy(), np.asarray(points, float).reshape(-1, 2)))
+        self.keyframes.append(Keyframe(float(stamp_s), odom.copy(), np.asarray(points, float).reshape(-1, 2),
+                                       self.odom_watch.velocity()))
         self.estimates = np.vstack([self.estimates, estimate])
         self.counts["keyframes"] += 1
 
     def _fused_step(self, stamp_s: float, delta: np.ndarray) -> tuple:
         """The odometry step with the gyro's heading fused in, and its covariance."""
         cov = odometry_covariance(delta, self.separation, self.s)
+        if self.s.odom_timing_std_s > 0:
+            cov = cov + timing_covariance(delta, self.keyframes[-1].velocity, self.odom_watch.velocity(),
+                                          self.s.odom_timing_std_s)
         t0 = self.keyframes[-1].stamp_s
         raw, covered, samples = self._integrate_gyro(t0, stamp_s)
         self._step_gyro = None
-        if not self.s.use_imu or covered < (stamp_s - t0) - 1e-6:
-            return delta, cov        # a gap in the gyro's samples: wheel odometry alone
         span = stamp_s - t0
+        if not self.s.use_imu or samples == 0 or span <= 0.0 or covered < span - 1e-6:
+            # a gap in the gyro's samples, or a step of no duration (stamps out of order): no gyro
+            # sample measured its turn, wheel odometry alone
+            return delta, cov
         period = covered / max(1, samples)
         yaw_imu = self.gyro_scale.correct(raw)
         # white noise per sample over span / period samples, plus a bias held over the span and
@@ -345,24 +457,23 @@ class Slam:
                  for i, kf in zip(range(lo, hi), self.keyframes[lo:hi]) if len(kf.points)]
         return np.vstack(parts) if parts else np.zeros((0, 2))
 
-    def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> None:
+    def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> bool:
+        """A keyframe at this scan; whether it was kept (``_update``)."""
         prev = len(self.keyframes) - 1
         step, cov = self._fused_step(stamp_s, delta)
-        factors = []
-        jumped, self.odom_jumped = self.odom_jumped, False
-        if jumped:
-            # no odometry across the jump: a loose tie keeps the graph connected
-            factors.append((prev, np.zeros(3), np.diag([1.0, 1.0, math.pi ** 2])))
-            guess = self.estimates[prev]
-        else:
-            factors.append((prev, step, cov))
-            guess = compose(self.estimates[prev], step)
+        jumped = self._jump_var is not None
+        if jumped:               # the step spans an odometry jump: as uncertain as the step stood in
+            cov = cov + np.diag(self._jump_var)
+            self._jump_var = None
+        odometry = (prev, step, cov)
+        factors = [odometry]
+        guess = compose(self.estimates[prev], step)
         reference = self._submap(max(0, prev + 1 - self.s.submap_keyframes), prev + 1)
         t0 = time.perf_counter()
-        match = self.matcher.match(points, reference, guess) if len(points) else None
+        match = self.matcher.match(points, reference, guess)
         self.match_ms.append(1e3 * (time.perf_counter() - t0))
         if match is not None and match.score >= self.s.match_min_score:
-            if jumped or self._consistent(guess, cov, match):
+            if self._consistent(guess, cov, match):
                 factors.append((prev, between(self.estimates[prev], match.pose), match.covariance))
                 self.counts["matched"] += 1
                 self.counts["degenerate"] += int(match.degenerate)
@@ -380,8 +491,30 @@ class Slam:
         self._store(stamp_s, odom, points, guess)
         if key % self.s.loop_every_keyframes == 0:
             self._close_loop(key)
-        self.update_ms.append(self.graph.update())
+        return self._update(key, odometry)
+
+    def _update(self, key: int, odometry: tuple) -> bool:
+        """iSAM2 with keyframe ``key``'s factors (and a loop closure's). Refused (the graph is left
+        as it was before them), the keyframe is tied by its ``odometry`` factor alone; refused
+        again, it is dropped (the next scan makes a new one). One line each."""
+        try:
+            self.update_ms.append(self.graph.update())
+        except ValueError as exc:
+            self.counts["refused"] += 1
+            self.events.append(f"keyframe {key}: {exc}; kept on its odometry alone")
+            guess = compose(self.estimates[key - 1], odometry[1])
+            try:
+                self.graph.add_keyframe(guess, [odometry])
+                self.update_ms.append(self.graph.update())
+            except ValueError as again:
+                self.counts["keyframes_dropped"] += 1
+                self.counts["keyframes"] -= 1
+                self.keyframes.pop()
+                self.estimates = self.estimates[:key]
+                self.events.append(f"keyframe {key}: {again}; dropped")
+                return False
         self.estimates = self.graph.poses()
+        return True
 
     def _consistent(self, predicted, step_cov: np.ndarray, match) -> bool:
         """Whether the match agrees with odometry's prediction within match_gate_chi2 (both in
@@ -438,7 +571,7 @@ class Slam:
             h = self.s.loop_submap_half_keyframes
             reference = self._submap(max(0, j - h), min(first_candidate, j + h + 1))
             match = self.loop_matcher.match(points, reference, here)
-            if match is None or match.degenerate or match.score < self.s.loop_min_score:
+            if match is None or match.score < self.s.loop_min_score:
                 continue
             if math.hypot(*(match.pose[:2] - here[:2])) > radius:
                 continue
