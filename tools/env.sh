@@ -11,7 +11,11 @@ source "$("$_top/tools/ws-path")/devel/setup.bash"
 # None of ROS_MASTER_URI, ROS_HOSTNAME, ROS_IP set by the user: a local master on the loopback
 # address, so that nothing depends on this machine's host name resolving (in many containers it
 # does not). Any one of them set leaves all three as the user has them (a real robot's master).
+# TURTLEBOT_RECON_MASTER=auto tells tools/launch that the port is ours to choose (11311 when free),
+# while the URI is the one set here (a shell that sourced this file before keeps it).
 if [[ -z $_ros_net ]]; then
-  export ROS_MASTER_URI=http://127.0.0.1:11311 ROS_IP=127.0.0.1
+  export ROS_MASTER_URI=http://127.0.0.1:11311 ROS_IP=127.0.0.1 TURTLEBOT_RECON_MASTER=auto
+elif [[ $ROS_MASTER_URI != http://127.0.0.1:11311 ]]; then
+  unset TURTLEBOT_RECON_MASTER
 fi
 unset _top _ros_net

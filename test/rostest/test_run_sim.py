@@ -1,8 +1,10 @@
 """The `make` targets' launcher (tools/launch) end to end: `make wander`'s launch file drives the
 house and writes its report; a bad argument is refused before any node starts; a node that
 fails ends the run non-zero with the node's own message as the last line."""
+import fcntl
 import json
 import os
+import socket
 import subprocess
 from pathlib import Path
 
@@ -10,10 +12,15 @@ TOP = Path(__file__).resolve().parents[2]
 RED = "\x1b[31m"
 
 
-def launch(*args, port: str, timeout: float = 300.0) -> subprocess.CompletedProcess:
-    """tools/launch with a master of its own on the loopback address (no host name needed)."""
-    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1")
+def launch(*args, port: str, timeout: float = 300.0, auto: bool = True) -> subprocess.CompletedProcess:
+    """tools/launch with a master of its own on the loopback address (no host name needed);
+    ``auto``: as tools/env.sh leaves it when the user named no master (the port is ours to
+    choose), else as when the user set ROS_MASTER_URI."""
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1",
+               TURTLEBOT_RECON_MASTER="auto")
     env.pop("ROS_HOSTNAME", None)
+    if not auto:
+        env.pop("TURTLEBOT_RECON_MASTER")
     return subprocess.run([str(TOP / "tools" / "launch"), *args], env=env, timeout=timeout,
                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
@@ -64,3 +71,53 @@ def test_a_failing_node_ends_the_run_with_its_own_message():
     assert proc.returncode == 1, proc.stdout[-3000:]
     assert last.startswith("[sim] failed: node sim_bridge exited with status 1:"), last
     assert "odom_slip_std_sqrt_m: must be >= 0" in last, last
+
+
+def busy_port() -> socket.socket:
+    """A listening socket on a free loopback port: another run's master, as tools/launch sees it."""
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    return s
+
+
+def test_a_run_whose_port_is_taken_gets_a_master_of_its_own(tmp_path):
+    """Issue 32: a second `make run` joined the first one's master and its nodes replaced the
+    first run's. Where the port is ours to choose, a taken one gives way to a free one, said in
+    one line, and the run goes on to its report."""
+    with busy_port() as taken:
+        port = taken.getsockname()[1]
+        proc = launch("--tag", "wander", "--done", "scripted_drive", "--report", str(tmp_path / "report.json"),
+                      "run_sim.launch", "world:=house", "robot:=turtlebot3_burger", "rtf:=0", "duration:=5",
+                      f"output:={tmp_path}", "end_with_driver:=false", port=str(port))
+    lines = proc.stdout.strip().splitlines()
+    assert proc.returncode == 0, "\n".join(lines[-20:])
+    assert lines[0].startswith(f"[wander] port {port} is taken (another run?): this run's ROS master is at "
+                               "http://127.0.0.1:"), lines[0]
+    assert json.loads((tmp_path / "report.json").read_text())["sim_time_s"] >= 5.0
+    assert not (tmp_path / ".run.lock").exists()          # the run directory is free again
+
+
+def test_a_master_the_user_named_that_runs_already_is_refused(tmp_path):
+    with busy_port() as taken:
+        port = taken.getsockname()[1]
+        proc = launch("--tag", "wander", "--done", "scripted_drive", "--report", str(tmp_path / "report.json"),
+                      "run_sim.launch", "world:=house", f"output:={tmp_path}", port=str(port), auto=False,
+                      timeout=60)
+    lines = proc.stdout.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1, proc.stdout
+    assert lines[0].startswith(f"[wander] refused: a ROS master (or another server) already listens at "
+                               f"http://127.0.0.1:{port} (ROS_MASTER_URI)"), lines[0]
+
+
+def test_a_run_directory_in_use_is_refused(tmp_path):
+    with open(tmp_path / ".run.lock", "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        held.write("pid 4242\n")
+        held.flush()
+        proc = launch("--tag", "run", "--done", "evaluator", "--report", str(tmp_path / "report.json"),
+                      "explore_sim.launch", f"output:={tmp_path}", port="11480", timeout=60)
+    lines = proc.stdout.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1, proc.stdout
+    assert lines[0] == (f"[run] refused: {tmp_path} is in use by another run (pid 4242); give this one "
+                        "another OUTPUT=DIR"), lines[0]
