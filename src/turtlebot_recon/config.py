@@ -25,7 +25,8 @@ def load_yaml(path: str | Path) -> dict:
     except FileNotFoundError:
         raise ConfigError(f"{path}: file not found") from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        why = " ".join(str(exc).split())       # one line: YAML's errors span several
+        raise ConfigError(f"{path}: not valid YAML: {why}") from None
     if data is None:
         return {}
     if not isinstance(data, dict):

@@ -22,6 +22,10 @@ OCCUPIED_THRESH, FREE_THRESH = 65, 25   # map_saver's defaults (ROS values, perc
 # below free_thresh free, unknown between
 YAML_OCCUPIED_THRESH, YAML_FREE_THRESH = 0.65, 0.196
 MAP_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode"}
+# The most cells a map may have to be taken by the explorer and the navigator: 5,000 x 5,000
+# cells (250 m x 250 m at 5 cm, 50 times the 1,280 m2 warehouse). A bigger one costs seconds per
+# costmap and frontier search and gigabytes, and comes from a wrong resolution or a broken driver.
+MAX_MAP_CELLS = 25_000_000
 
 
 class MapError(ConfigError):
@@ -34,6 +38,23 @@ def map_number(meta: dict, key: str, src: Path, default=None) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise MapError(f"{src}: key '{key}': expected a number, got {v!r}")
     return float(v)
+
+
+def check_grid(rows: int, cols: int, resolution: float, origin, cells: int, what: str = "map") -> None:
+    """ValueError (one line naming ``what`` and the fault) unless a map of ``rows`` x ``cols``
+    cells, ``resolution`` m per cell, ``origin`` (x, y) m and ``cells`` data values can be used.
+    Takes the header only: a bad map is refused before its data is copied."""
+    if rows <= 0 or cols <= 0:
+        raise ValueError(f"{what}: empty ({cols} x {rows} cells)")
+    if rows * cols > MAX_MAP_CELLS:
+        raise ValueError(f"{what}: {cols} x {rows} cells is more than {MAX_MAP_CELLS:,} (at "
+                         f"{resolution:g} m per cell; a wrong resolution?)")
+    if not (math.isfinite(resolution) and resolution > 0):
+        raise ValueError(f"{what}: resolution {resolution!r} m per cell is not positive")
+    if not all(math.isfinite(float(o)) for o in origin):
+        raise ValueError(f"{what}: origin {tuple(origin)!r} is not finite")
+    if cells != rows * cols:
+        raise ValueError(f"{what}: {cells} values for {cols} x {rows} cells")
 
 
 def occupancy_classes(pixels: np.ndarray, meta: dict, src: Path) -> np.ndarray:
@@ -81,12 +102,20 @@ def load_map(path: str | Path) -> tuple:
     """(occupancy int8 with -1/0/100, resolution, (origin_x, origin_y)) of a map_server YAML."""
     path = Path(path)
     meta = yaml.safe_load(path.read_text())
-    pixels = cv2.imread(str(path.parent / meta["image"]), cv2.IMREAD_UNCHANGED)
+    if not isinstance(meta, dict):
+        raise MapError(f"{path}: expected a mapping at the top level, got {meta!r}")
+    for key in ("image", "resolution"):
+        if key not in meta:
+            raise MapError(f"{path}: key '{key}': missing")
+    resolution = map_number(meta, "resolution", path)
+    if resolution <= 0:
+        raise MapError(f"{path}: key 'resolution': must be positive, got {resolution:g}")
+    pixels = cv2.imread(str(path.parent / str(meta["image"])), cv2.IMREAD_UNCHANGED)
     if pixels is None:
         raise OSError(f"{path}: cannot read image {meta['image']}")
     occ = np.flipud(occupancy_classes(pixels, meta, path)).copy()
     origin = meta.get("origin", [0.0, 0.0, 0.0])
-    return occ, float(meta["resolution"]), (float(origin[0]), float(origin[1]))
+    return occ, resolution, (float(origin[0]), float(origin[1]))
 
 
 def load_map_as(path: str | Path, what: str) -> tuple:
@@ -94,5 +123,6 @@ def load_map_as(path: str | Path, what: str) -> tuple:
     one ValueError: "cannot load WHAT 'PATH': why" (a node's parameter, a command's argument)."""
     try:
         return load_map(path)
-    except (OSError, KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise ValueError(f"cannot load {what} {str(path)!r}: {exc}") from None
+    except (OSError, KeyError, TypeError, ValueError, AttributeError, yaml.YAMLError) as exc:
+        why = " ".join(str(exc).split())          # one line: YAML's errors span several
+        raise ValueError(f"cannot load {what} {str(path)!r}: {why}") from None

@@ -116,6 +116,16 @@ class Mapper:
             self.skipped[reason] += 1
         return reason
 
+    @staticmethod
+    def skip_line(reason: str, scan: Scan) -> str:
+        """The node's one line for a scan ``check_scan`` refused for ``reason``."""
+        what = {"empty": "no ranges",
+                "bad_header": "angles or range limits not finite, angle_increment 0 or range_max <= range_min",
+                "length_mismatch": "the number of ranges does not match the angles"}.get(reason, reason)
+        return (f"mapper: scan skipped ({reason}: {what}): {len(scan.ranges)} ranges, angles "
+                f"{scan.angle_min:.3f}..{scan.angle_max:.3f} step {scan.angle_increment:.5f}, "
+                f"range {scan.range_min:g}..{scan.range_max:g} m")
+
     def time_jumped_back(self, now_s: float) -> bool:
         """True (once) when the clock went backwards, e.g. a restarted simulation or bag.
 

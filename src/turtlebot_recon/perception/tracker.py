@@ -153,6 +153,7 @@ def _floored(R: np.ndarray, min_position_std_m: float, min_yaw_std_rad: float) -
 
 
 def _check_inputs(detection: TagDetection, T: np.ndarray, stamp_s: float) -> None:
+    canonical(detection.family)              # ValueError naming an unknown family
     if not math.isfinite(stamp_s):
         raise ValueError(f"stamp_s must be finite, got {stamp_s!r}")
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):

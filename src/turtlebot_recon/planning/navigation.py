@@ -28,6 +28,7 @@ from ..control import (BLOCKED, CONTROLLERS, DEFAULT_CONTROLLER, NO_PATH, BodyCh
                        DwaSettings, FollowerSettings, MppiSettings, PdSettings, TrackingSettings,
                        TubeMppiSettings, make_controller)
 from ..control.tracking import PathTracker
+from ..mapping.map_io import check_grid
 from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
@@ -165,18 +166,33 @@ class Navigation:
         self._blocked_map: Optional[MapView] = None   # the map the last blocked report counted on
         self._blocked_at = -math.inf                  # ... and when (s)
         self.last_output = None
+        self.repeated_goals = 0                       # the active goal sent again (set_goal)
 
     # ------------------------------------------------------------------ inputs
-    def set_goal(self, x: float, y: float, yaw: Optional[float] = None) -> None:
+    def set_goal(self, x: float, y: float, yaw: Optional[float] = None) -> bool:
+        """Pursue (x, y) m (map frame), ending facing ``yaw`` (None: any heading). Returns False
+        for a goal refused (not finite: the goal fails, its reason says why) and for the goal
+        being pursued sent again (a client repeating itself, up to 1,000 times a second): its
+        plan and the controller's state are kept, counted in ``repeated_goals``."""
         if not (math.isfinite(x) and math.isfinite(y)) or (yaw is not None and not math.isfinite(yaw)):
             self._finish("failed", f"goal ({x}, {y}, {yaw}) is not finite")
-            return
+            return False
+        if self.status == "active" and self.goal == (x, y, yaw):
+            self.repeated_goals += 1
+            return False
         self.goal = (x, y, yaw)
         self._clear_path()
         self.status, self.reason = "active", ""
         self._need_plan, self._blocked, self._blocked_map, self._blocked_at = True, 0, None, -math.inf
         self.controller.reset()
         self._taken_at = None
+        return True
+
+    def repeat_line(self) -> str:
+        """The node's line for ``repeated_goals``."""
+        x, y, _ = self.goal
+        return (f"navigator: the goal being pursued ({x:.2f}, {y:.2f}) was sent again "
+                f"({self.repeated_goals} times so far): its plan kept")
 
     def fail(self, reason: str) -> None:
         self._finish("failed", reason)
@@ -192,8 +208,12 @@ class Navigation:
     def map_view(self, occupancy: np.ndarray, resolution: float, origin: tuple) -> MapView:
         """The map with its footprint costmap (~20 ms for the waffle_pi, in C++ without the GIL).
         Reads no state: a node builds it outside its lock, then hands it to ``set_map``, so the
-        control loop is not held up meanwhile."""
+        control loop is not held up meanwhile. A map that cannot be used (``check_grid``: empty,
+        too large, resolution not positive) raises ValueError, one line; the map in use stays."""
         occupancy = np.asarray(occupancy, dtype=np.int8)
+        if occupancy.ndim != 2:
+            raise ValueError(f"map: expected a 2-D grid, got shape {occupancy.shape}")
+        check_grid(*occupancy.shape, resolution, origin, occupancy.size)
         costmap = footprint_costmap(occupancy, resolution, self.robot, self.lattice)
         return MapView(occupancy, costmap, resolution, (float(origin[0]), float(origin[1])))
 

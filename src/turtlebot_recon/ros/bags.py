@@ -43,6 +43,9 @@ class BagReader:
         try:
             with rosbag.Bag(str(self.path)) as bag:
                 types = {t: i.msg_type for t, i in bag.get_type_and_topic_info().topics.items()}
+        except rosbag.ROSBagUnindexedException:
+            raise LogError(f"{self.path}: not indexed, a recording cut short: `rosbag reindex {self.path}` "
+                           "recovers its complete chunks") from None
         except Exception as e:   # ROSBagException, ROSBagFormatException, struct errors...
             raise LogError(f"{self.path}: not a readable rosbag ({type(e).__name__}: {e})") from None
         wanted = {"scan": scan_topic, "odom": odom_topic, "imu": imu_topic, "tags": tags_topic}

@@ -4,6 +4,7 @@
 - ``path_poses``: nav_msgs/Path (SLAM's keyframes) -> their stamps and (x, y, yaw) poses.
 - ``rollout_markers``: a controller's ``markers()`` (its trajectory and rollouts with their
   scores) -> visualization_msgs/MarkerArray (~controller_markers).
+- ``odom_velocity``: nav_msgs/Odometry -> (v, w), refused when not finite.
 - ``goal_yaw``: a goal pose's heading, None for an all-zero quaternion ("any final heading").
 """
 from __future__ import annotations
@@ -40,6 +41,14 @@ def path_poses(m: Path) -> tuple:
     stamps = [p.header.stamp.to_sec() for p in m.poses]
     poses = [(p.pose.position.x, p.pose.position.y, quaternion_to_yaw(p.pose.orientation)) for p in m.poses]
     return stamps, poses
+
+
+def odom_velocity(m) -> tuple:
+    """(v m/s, w rad/s) of a nav_msgs/Odometry's twist; ValueError (one line) when not finite."""
+    v, w = m.twist.twist.linear.x, m.twist.twist.angular.z
+    if not (math.isfinite(v) and math.isfinite(w)):
+        raise ValueError(f"odometry twist not finite (v {v}, w {w})")
+    return v, w
 
 
 def goal_yaw(q) -> Optional[float]:

@@ -38,6 +38,7 @@ from .slam import Slam
 TIME_JUMP_BACK_S = 1.0         # the clock going back this far is a new run, not jitter
 IMU_SILENT_S = 0.5             # no IMU sample this long before a scan: the IMU is off, don't wait
 MAX_PENDING = 3                # scans waiting for the gyro at most (a stalled IMU)
+SILENT_SCANS = 5               # scans in a row without the IMU before the node says so
 MAX_TAG_RANGE_M = 8.0          # a tag reported farther than this is absurd for our cameras
 
 
@@ -63,10 +64,24 @@ class GyroQueue:
         self.max_pending = max_pending
         self.pending: Deque[Tuple[float, Any]] = deque()
         self.imu_stamp = -math.inf           # the newest IMU sample's stamp
+        self.silent_scans = 0                # scans in a row that found the IMU silent (went at once)
 
     def add_scan(self, stamp_s: float, scan: Any) -> List[Tuple[float, Any]]:
         self.pending.append((stamp_s, scan))
-        return self._ready(force=self.imu_stamp < stamp_s - self.imu_silent_s)
+        silent = self.imu_stamp < stamp_s - self.imu_silent_s
+        self.silent_scans = self.silent_scans + 1 if silent else 0
+        return self._ready(force=silent)
+
+    @property
+    def silent(self) -> bool:
+        """The IMU silent for SILENT_SCANS scans in a row (not just slow to start): say so."""
+        return self.silent_scans >= SILENT_SCANS
+
+    def silence_line(self) -> str:
+        """The node's line while the IMU is ``silent`` (none, or one that stopped)."""
+        last = "none yet" if self.imu_stamp == -math.inf else f"the last at {self.imu_stamp:.2f} s"
+        return (f"no IMU sample in the {self.imu_silent_s:g} s before each of the last {self.silent_scans} "
+                f"scans ({last}): headings from the wheels alone")
 
     def add_imu(self, stamp_s: float) -> List[Tuple[float, Any]]:
         self.imu_stamp = stamp_s
