@@ -131,7 +131,7 @@ def test_the_gyros_bias_is_estimated_in_the_graph(tmp_path):
     shows it: 0.16 rad), odometry's heading from it as the TurtleBot3's firmware gives it, loop
     closures off (the front end alone, where the bias leaked into the heading). Each keyframe's
     matched turn differs from the gyro's by b dt + ~1.5 mrad: over 59 keyframes in 70 s the bias
-    variable settles on it to ~2e-4 rad/s (1.5 mrad / sqrt(59)), and the heading keeps within a
+    settles on it to ~2e-4 rad/s (1.5 mrad / sqrt(59)), and the heading keeps within a
     few mrad of the truth (4 mrad measured; 41 mrad with the bias left to each step's variance,
     as before the bias was in the graph). Without the yaw-rate factor no bias is estimated."""
     from turtlebot_recon.sim import load_world
@@ -144,6 +144,9 @@ def test_the_gyros_bias_is_estimated_in_the_graph(tmp_path):
     stamps, truth, odom = drive(sim, LOOP, laps=1, slam=slam)
     sim.close()
     st = slam.stats()
+    # a bias variable at the start and one gyro_bias_period_s (60 s) on, the steps between sharing it
+    assert [k for k in range(len(slam.keyframes)) if slam.graph.has_bias(k)][0] == 0
+    assert sum(slam.graph.has_bias(k) for k in range(len(slam.keyframes))) == 2
     assert abs(st["gyro_bias_radps"] - 0.002) < 4e-4, st          # 0.00198 measured
     assert st["gyro_bias_std_radps"] < 3e-4, st
     idx = np.searchsorted(stamps, [k.stamp_s for k in slam.keyframes])

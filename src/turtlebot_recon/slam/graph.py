@@ -1,8 +1,8 @@
 """The SLAM back end: a GTSAM iSAM2 pose graph over planar keyframes and tag landmarks.
 
 Variables: keyframe poses ``X(k)`` (``gtsam.Pose2``, k = 0, 1, ... in the order they are
-added), the gyro's bias ``B(k)`` at keyframe k (a double in mrad/s, ``BIAS_UNIT_RADPS``; only
-once a gyro is heard; every method takes and gives rad/s) and landmarks, numbered j = 0, 1, ... in the order they are first seen: ``L(j)``, a
+added), the gyro's bias ``B(k)`` at keyframe k (a double in mrad/s, ``BIAS_UNIT_RADPS``, at the
+keyframes the caller gives one; every method takes and gives rad/s) and landmarks, numbered j = 0, 1, ... in the order they are first seen: ``L(j)``, a
 ``Point2``, for a tag seen as a position, ``T(j)``, a ``Pose2``, for a tag seen with its yaw (two
 letters because iSAM2's relinearisation thresholds are per letter and per dimension). Factors,
 as in GTSAM's Pose2 iSAM2 example:
@@ -17,9 +17,9 @@ as in GTSAM's Pose2 iSAM2 example:
    under-determined variable, and a sighting far outside the estimate's uncertainty is refused;
 5. the gyro (``add_bias``, ``add_yaw_rate``): a prior on the first bias variable, a random walk
    ``BetweenFactorDouble`` from each bias to the next, and per keyframe step i -> j a yaw-rate
-   factor on ``X(i)``, ``X(j)``, ``B(i)``: the gyro integrates ``(1 + k) (theta_j - theta_i) +
-   b_i dt`` over the step (k its scale error, fitted outside the graph: ``slam.GyroScale``), so
-   with the turn divided by ``1 + k`` its error is ``theta_j - theta_i + b_i dt / (1 + k) -
+   factor on ``X(i)``, ``X(j)`` and the bias ``B(m)`` the step has (``B(i)`` where each keyframe
+   has one): the gyro integrates ``(1 + k) (theta_j - theta_i) + b dt`` over the step (k its scale error, fitted outside the graph: ``slam.GyroScale``), so
+   with the turn divided by ``1 + k`` its error is ``theta_j - theta_i + b dt / (1 + k) -
    turn``, linear in all three (a ``gtsam.CustomFactor``: GTSAM's ``AHRSFactor`` is the same idea
    for ``Rot3`` and a 3-vector bias, and does not fit a ``Pose2`` graph). Every step shares the
    bias, so the graph weighs the turns' common error as one, where independent odometry factors
@@ -243,20 +243,22 @@ class PoseGraph:
         self._biases.append(int(key))
 
     def add_yaw_rate(self, i: int, j: int, turn_rad: float, span_s: float, std_rad: float,
-                     scale: float = 1.0) -> None:
+                     scale: float = 1.0, bias_key: Optional[int] = None) -> None:
         """Queue a yaw-rate factor: the gyro's rate integrated from keyframe ``i`` to ``j`` over
         ``span_s`` and divided by ``scale`` (1 + its scale error), ``turn_rad``, with the std of
-        its white noise ``std_rad``, measures theta_j - theta_i + B(i) ``span_s`` / ``scale``."""
+        its white noise ``std_rad``, measures theta_j - theta_i + B(m) ``span_s`` / ``scale``, m
+        = ``bias_key`` (default i: the bias at the step's start)."""
         what = f"yaw rate {i} -> {j}"
         self._check_key(i, what)
         self._check_key(j, what)
-        if not self.has_bias(i):
-            raise ValueError(f"{what}: no bias at keyframe {i}")
+        m = i if bias_key is None else bias_key
+        if not self.has_bias(m):
+            raise ValueError(f"{what}: no bias at keyframe {m}")
         numbers = np.array([turn_rad, span_s, scale], float)
         if not np.all(np.isfinite(numbers)) or span_s < 0.0 or scale <= 0.0:
             raise ValueError(f"{what}: turn, span >= 0 and scale > 0 must be finite, got {numbers.tolist()}")
         noise = gtsam.noiseModel.Isotropic.Sigma(1, _std(std_rad, f"{what}: std_rad"))
-        self._new_factors.add(yaw_rate_factor(X(int(i)), X(int(j)), B(int(i)), float(turn_rad),
+        self._new_factors.add(yaw_rate_factor(X(int(i)), X(int(j)), B(int(m)), float(turn_rad),
                                               BIAS_UNIT_RADPS * float(span_s) / float(scale), noise))
 
     def add_landmark(self, name: str, key: int, observation, covariance) -> Optional[str]:
@@ -381,6 +383,10 @@ class PoseGraph:
         if key >= self._n_done:
             raise ValueError(f"marginal {key}: keyframe {key} has not been through update() yet")
         return self._isam.marginalCovariance(X(key))
+
+    def last_bias(self) -> Optional[int]:
+        """The newest keyframe with a bias variable (queued or in iSAM2); None before the first."""
+        return self._biases[-1] if self._biases else None
 
     def has_bias(self, key) -> bool:
         """Whether keyframe ``key`` has a bias variable (queued or in iSAM2)."""
