@@ -306,20 +306,22 @@ def test_bad_factors_are_refused_and_the_graph_keeps_working():
     assert np.allclose(graph.poses()[:, 0], [0.0, 1.0, 2.0, 3.0], atol=1e-9)
 
 
+class FailingISAM2:
+    """An iSAM2 whose next update fails, as a numerical breakdown would."""
+    def __init__(self, isam):
+        self.isam = isam
+
+    def update(self, *args):
+        raise RuntimeError("Indeterminant linear system detected")
+
+    def __getattr__(self, name):
+        return getattr(self.isam, name)
+
+
 def test_a_failed_isam2_update_rebuilds_the_previous_graph():
     graph = chain(n=3)
 
-    class Failing:   # an iSAM2 whose next update fails, as a numerical breakdown would
-        def __init__(self, isam):
-            self.isam = isam
-
-        def update(self, *args):
-            raise RuntimeError("Indeterminant linear system detected")
-
-        def __getattr__(self, name):
-            return getattr(self.isam, name)
-
-    graph._isam = Failing(graph._isam)
+    graph._isam = FailingISAM2(graph._isam)
     graph.add_keyframe((3.0, 0.0, 0.0), [(2, (1.0, 0.0, 0.0), ODOM_COV)])
     graph.add_loop(0, 3, (3.0, 0.0, 0.0), LOOP_COV)
     with pytest.raises(ValueError, match="iSAM2 refused the update .* dropped, the graph rebuilt"):
@@ -414,17 +416,7 @@ def test_the_gyro_bias_is_refused_without_a_chain_and_dropped_with_a_failed_upda
     graph.update()
     assert graph.has_bias(1) and abs(graph.bias(1)) < 2e-3
     # a failed update drops the bias it brought with its keyframe; the chain goes on from B(1)
-    class Failing:   # an iSAM2 whose next update fails (as in the test above)
-        def __init__(self, isam):
-            self.isam = isam
-
-        def update(self, *args):
-            raise RuntimeError("Indeterminant linear system detected")
-
-        def __getattr__(self, name):
-            return getattr(self.isam, name)
-
-    graph._isam = Failing(graph._isam)
+    graph._isam = FailingISAM2(graph._isam)
     graph.add_keyframe((0.6, 0.0, 0.0), [(1, (0.3, 0.0, 0.0), ODOM_COV)])
     graph.add_bias(2, walk_from=1, walk_std=1e-6)
     with pytest.raises(ValueError, match="iSAM2 refused"):
