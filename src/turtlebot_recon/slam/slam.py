@@ -101,8 +101,9 @@ class SlamSettings:
                                           # the last one's (0: one per keyframe); the steps between
                                           # share it. One per keyframe doubled the cliques iSAM2
                                           # re-eliminates at a loop closure: a recorded 1,200 s house
-                                          # drive's p99 13.6 -> 47 ms CPU; every 60 s, 16 ms, the
-                                          # same heading error (the bias walks ~8e-6 rad/s in 60 s)
+                                          # drive's p99 14 -> 47 ms CPU; every 60 s, 17 ms, the same
+                                          # heading error (the bias walks ~8e-6 rad/s in 60 s); the
+                                          # office drive: 7 -> 3.5 ms per keyframe, 30 ms every 60 s
     gyro_scale_std: float = 0.02          # prior std of the scale factor error (fraction; GyroScale)
     match_min_score: float = 0.5          # scan-match factors below this score are left out
     match_gate_chi2: float = 16.3         # ... and those this far (Mahalanobis^2 over both
