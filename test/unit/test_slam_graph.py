@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from turtlebot_recon.config import ConfigError
+from turtlebot_recon.geometry import wrap_angle
 from turtlebot_recon.slam.datasets import (CITY10000_EDGES, CITY10000_REFERENCE, W100, feed_edges,
                                            gtsam_data_dir, read_city10000, read_graph_edges,
                                            read_reference, run_city10000)
@@ -305,20 +306,22 @@ def test_bad_factors_are_refused_and_the_graph_keeps_working():
     assert np.allclose(graph.poses()[:, 0], [0.0, 1.0, 2.0, 3.0], atol=1e-9)
 
 
+class FailingISAM2:
+    """An iSAM2 whose next update fails, as a numerical breakdown would."""
+    def __init__(self, isam):
+        self.isam = isam
+
+    def update(self, *args):
+        raise RuntimeError("Indeterminant linear system detected")
+
+    def __getattr__(self, name):
+        return getattr(self.isam, name)
+
+
 def test_a_failed_isam2_update_rebuilds_the_previous_graph():
     graph = chain(n=3)
 
-    class Failing:   # an iSAM2 whose next update fails, as a numerical breakdown would
-        def __init__(self, isam):
-            self.isam = isam
-
-        def update(self, *args):
-            raise RuntimeError("Indeterminant linear system detected")
-
-        def __getattr__(self, name):
-            return getattr(self.isam, name)
-
-    graph._isam = Failing(graph._isam)
+    graph._isam = FailingISAM2(graph._isam)
     graph.add_keyframe((3.0, 0.0, 0.0), [(2, (1.0, 0.0, 0.0), ODOM_COV)])
     graph.add_loop(0, 3, (3.0, 0.0, 0.0), LOOP_COV)
     with pytest.raises(ValueError, match="iSAM2 refused the update .* dropped, the graph rebuilt"):
@@ -348,3 +351,78 @@ def test_a_malformed_city10000_line_names_its_number(tmp_path):
     path.write_text("EDGE2 0 1 1 0 1 1.0 0.0 0.0\nEDGE2 1 1 2 0 2 1.0 0.0\n")
     with pytest.raises(ValueError, match=r"bad.txt:2: not a city10000 edge"):
         read_city10000(path)
+
+
+def turn_sequence(bias_radps, scale_error, use_gyro=True, steps=100, seed=0):
+    """A robot turning back and forth in place, one keyframe a second (turns of up to 0.4 rad),
+    its heading tied by weak wheel odometry (0.05 rad), scan matches (1.5 mrad) and, with
+    ``use_gyro``, the gyro: it reads (1 + scale_error) times the turn plus bias * 1 s plus white
+    noise (0.2 mrad). Returns (graph, true headings)."""
+    rng = np.random.default_rng(seed)
+    graph = PoseGraph()
+    odom_cov, match_cov = np.diag([1e-4, 1e-4, 0.05 ** 2]), np.diag([1e-4, 1e-4, 0.0015 ** 2])
+    theta = [0.0]
+    for k in range(1, steps + 1):
+        turn = 0.4 * math.sin(0.7 * k)
+        theta.append(theta[-1] + turn)
+        odom = (0.0, 0.0, turn + rng.normal(0, 0.05))
+        match = (0.0, 0.0, turn + rng.normal(0, 0.0015))
+        graph.add_keyframe(graph.pose(k - 1) + (0, 0, odom[2]), [(k - 1, odom, odom_cov), (k - 1, match, match_cov)])
+        if use_gyro:
+            if k == 1:
+                graph.add_bias(0, prior_std=0.001)
+            graph.add_bias(k, walk_from=k - 1, walk_std=1e-6)
+            raw = (1 + scale_error) * turn + bias_radps * 1.0 + rng.normal(0, 0.0002)
+            graph.add_yaw_rate(k - 1, k, raw / (1 + scale_error), 1.0, 0.0002, 1 + scale_error)
+        graph.update()
+    return graph, np.array(theta)
+
+
+def test_the_yaw_rate_factor_recovers_a_known_gyro_bias():
+    """A bias of 2 mrad/s (the gyro's 5e-5 rad/s x 40, so that 100 s show it) and a known scale
+    error of 1.5 %. Each step's residual gyro - match turn is b * 1 s + noise of ~1.5 mrad (the
+    match's), so 100 steps fix b to ~1.5e-4 rad/s (1.5 mrad / sqrt(100)); the bias walks by
+    1e-5 over them. The heading then follows the gyro less its bias: its error stays near the
+    matches' chained noise (1.5 mrad x sqrt(100) / a few), where the bias alone is 0.2 rad over
+    the sequence. Without the gyro the bias is unknown: no variable, nothing recovered."""
+    graph, theta = turn_sequence(0.002, 0.015)
+    b, std = graph.bias(100), graph.bias_std(100)
+    assert abs(b - 0.002) < 4e-4, (b, std)                       # recovered (0 without the factor)
+    assert 1e-4 < std < 3e-4, std                                # 1.5e-4 expected, as above
+    assert abs(graph.bias(0) - graph.bias(100)) < 1e-4           # one bias, walking slowly
+    errors = np.array([wrap_angle(graph.pose(k)[2] - theta[k]) for k in range(101)])
+    assert np.abs(errors).max() < 0.01, np.abs(errors).max()     # 0.2 rad of bias over 100 s
+    # the bias the matches see is the gyro's: wheel odometry and matches alone leave none
+    plain, _ = turn_sequence(0.002, 0.015, use_gyro=False)
+    assert not plain.has_bias(100)
+    with pytest.raises(ValueError, match="no bias"):
+        plain.bias(100)
+
+
+def test_the_gyro_bias_is_refused_without_a_chain_and_dropped_with_a_failed_update():
+    graph = PoseGraph()
+    graph.add_keyframe((0.3, 0.0, 0.0), [(0, (0.3, 0.0, 0.0), ODOM_COV)])
+    with pytest.raises(ValueError, match="no bias at keyframe 0"):
+        graph.add_yaw_rate(0, 1, 0.0, 1.0, 1e-3)
+    with pytest.raises(ValueError, match="either prior_std"):
+        graph.add_bias(0)
+    with pytest.raises(ValueError, match="positive finite std"):
+        graph.add_bias(0, prior_std=0.0)
+    graph.add_bias(0, prior_std=1e-3)
+    graph.add_bias(1, walk_from=0, walk_std=1e-6)
+    with pytest.raises(ValueError, match="finite"):
+        graph.add_yaw_rate(0, 1, float("nan"), 1.0, 1e-3)
+    graph.add_yaw_rate(0, 1, 0.001, 1.0, 1e-4)
+    graph.update()
+    assert graph.has_bias(1) and abs(graph.bias(1)) < 2e-3
+    # a failed update drops the bias it brought with its keyframe; the chain goes on from B(1)
+    graph._isam = FailingISAM2(graph._isam)
+    graph.add_keyframe((0.6, 0.0, 0.0), [(1, (0.3, 0.0, 0.0), ODOM_COV)])
+    graph.add_bias(2, walk_from=1, walk_std=1e-6)
+    with pytest.raises(ValueError, match="iSAM2 refused"):
+        graph.update()
+    assert len(graph) == 2 and not graph.has_bias(2) and graph.has_bias(1)
+    graph.add_keyframe((0.6, 0.0, 0.0), [(1, (0.3, 0.0, 0.0), ODOM_COV)])
+    graph.add_bias(2, walk_from=1, walk_std=1e-6)
+    graph.update()
+    assert graph.has_bias(2)

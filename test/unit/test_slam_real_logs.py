@@ -107,8 +107,10 @@ def test_a_step_of_no_duration_keeps_the_wheels_heading_variance():
     pts = scan_points_from((1.0, 1.5, 0.0))
     assert slam.add_scan(10.0, pts, (1.0, 1.5, 0.0))
     for stamp in (10.0, 9.5):                 # the same stamp, then one 0.5 s earlier
-        _, cov = slam._fused_step(stamp, np.array([0.3, 0.0, 0.1]))
-        assert cov[2, 2] >= SlamSettings().odom_floor_std_rad ** 2
+        delta = np.array([0.3, 0.0, 0.1])
+        cov, gyro = slam._odometry(stamp, delta)
+        _, predicted = slam._predict(delta, cov, gyro)
+        assert gyro is None and predicted[2, 2] >= SlamSettings().odom_floor_std_rad ** 2
 
 
 def test_a_scan_with_no_return_is_skipped_with_a_count():
