@@ -365,7 +365,11 @@ def execute(strategy: str, world: str, seed: int, budget: float, args, lock: thr
     last = lines[-1].split("] ", 1)[-1] if lines else ""
     died = rc not in (0, 130) and not timed_out
     report = json.loads((run_dir / "report.json").read_text()) if (run_dir / "report.json").exists() else {}
-    has_report = bool(report) and report.get("finished_reason") != SHUTDOWN_REASON
+    # a report the evaluator wrote when the run was stopped from outside is partial (tools/launch
+    # keeps its reason as finished_reason_evaluator and names what stopped the run)
+    has_report = bool(report) and SHUTDOWN_REASON not in (report.get("finished_reason"),
+                                                          report.get("finished_reason_evaluator")) \
+        and "written_by" not in report
     if STOPPING.is_set() and not has_report:
         status, reason = "failed", "interrupted (Ctrl-C)"
     elif timed_out and not has_report:

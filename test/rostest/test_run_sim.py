@@ -4,9 +4,14 @@ fails ends the run non-zero with the node's own message as the last line."""
 import fcntl
 import json
 import os
+import signal
 import socket
 import subprocess
+import threading
+import time
 from pathlib import Path
+
+import pytest
 
 TOP = Path(__file__).resolve().parents[2]
 RED = "\x1b[31m"
@@ -121,3 +126,70 @@ def test_a_run_directory_in_use_is_refused(tmp_path):
     assert proc.returncode == 2 and len(lines) == 1, proc.stdout
     assert lines[0] == (f"[run] refused: {tmp_path} is in use by another run (pid 4242); give this one "
                         "another OUTPUT=DIR"), lines[0]
+
+
+def node_pid(name: str, port: int):
+    """The pid of node ``name`` of the run whose master is on ``port``, or None."""
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+            env = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if f"__name:={name}".encode() in cmd and f"ROS_MASTER_URI=http://127.0.0.1:{port}".encode() in env:
+            return int(pid)
+    return None
+
+
+@pytest.mark.parametrize("node, port", [("navigator", 11482), ("evaluator", 11483), ("Ctrl-C", 11484)])
+def test_a_node_killed_mid_run_is_named_in_the_report(tmp_path, node, port):
+    """Issue 32, nothing lost: a node killed mid-run ends it loudly, and report.json names the
+    node; where the evaluator itself died, tools/launch writes the report from what the other
+    nodes saved; Ctrl-C (SIGINT to the terminal's process group) is named too."""
+    env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1")
+    env.pop("ROS_HOSTNAME", None)
+    proc = subprocess.Popen([str(TOP / "tools" / "launch"), "--tag", "run", "--done", "evaluator", "--report",
+                             str(tmp_path / "report.json"), "explore_sim.launch", "world:=arena",
+                             "robot:=turtlebot3_burger", "mission:=map", "rtf:=0", "budget:=600",
+                             f"output:={tmp_path}", "end_with_evaluator:=false"],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    lines = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None and not any("explorer: started" in ln for ln in lines):
+            time.sleep(0.5)
+        time.sleep(3.0)                                   # a few cycles of exploring
+        if node == "Ctrl-C":
+            os.killpg(proc.pid, signal.SIGINT)
+        else:
+            pid = node_pid(node, port)
+            assert pid is not None, f"no {node} running: {''.join(lines[-20:])}"
+            os.kill(pid, signal.SIGKILL)
+        proc.wait(timeout=120)
+        reader.join(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    out = "".join(lines)
+    last = out.strip().splitlines()[-1]
+    if node == "Ctrl-C":
+        assert proc.returncode == 130 and last.startswith("[run] stopped (Ctrl-C); report: "), out[-3000:]
+        report = json.loads((tmp_path / "report.json").read_text())
+        assert report["finished_reason"] == "stopped by Ctrl-C", report["finished_reason"]
+        assert report["coverage_final"] > 0.05 and (tmp_path / "path.csv").exists()
+        return
+    assert proc.returncode == 1, out[-3000:]
+    assert last.startswith(f"[run] failed: node {node} exited with status -9"), last
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["finished_reason"].startswith(f"node {node} exited with status -9"), report["finished_reason"]
+    if node == "evaluator":
+        assert report["written_by"] == "tools/launch: the evaluator wrote no report" and report["coverage_final"] is None
+        assert report["world"] == "arena" and report["robot"] == "turtlebot3_burger"
+        assert "(partial report: " in last
+    else:
+        assert report["finished_reason_evaluator"] == "shut down before the end"
+        assert report["coverage_final"] > 0.05 and (tmp_path / "path.csv").exists()
+        assert "(report: " in last
