@@ -22,7 +22,7 @@ RUN_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,ST
 WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,RTF,rtf) $(call arg,SEED,seed) \
   $(call arg,DURATION,duration) $(call arg,RVIZ,rviz))
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav slam-log slam-eval worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav bench-plan slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
@@ -43,6 +43,11 @@ help:
 	@echo "                 cycle times -> output/bench/control.json, figures in output/bench/control/ (RUNS=N)"
 	@echo "make bench-nav   every controller over 30 start/goal pairs per world (house, office, maze) in the"
 	@echo "                 simulator, drifting odometry + localisation -> output/bench/nav.json (POSE=truth, PAIRS=N)"
+	@echo "make bench-plan  global planners (lattice, A* + shortcut, seed 003's RRT, OMPL at 0.05 and 0.2 s, 1 s on the real"
+	@echo "                 maps) over 30 reachable start/goal pairs per world and robot, every shipped world, depot and"
+	@echo "                 tb3_sandbox -> output/bench/plan.json"
+	@echo "                 (WORLDS=house,../shared/worlds/depot.yaml PAIRS=N PLANNERS=lattice,astar_shortcut,rrt_seed003,ompl"
+	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N)"
 	@echo "make bench-explore  recon and the oracle x worlds x 3 seeds, 2 at a time (<= 1 h) -> output/bench/explore.json,"
 	@echo "                 plots in output/bench/explore/, a copy in docs/results/ to commit; held-out rows (garden, doors,"
 	@echo "                 cluttered with the burger and the waffle_pi: 1 seed) reported apart (heldout_*)"
@@ -118,6 +123,13 @@ bench-nav: build
 	@$(ENV) python test/benchmarks/bench_nav.py $(if $(CONTROLLERS),--controllers $(CONTROLLERS)) \
 	  $(if $(WORLDS),--worlds $(WORLDS)) $(if $(PAIRS),--pairs $(PAIRS)) $(if $(JOBS),--jobs $(JOBS)) \
 	  $(if $(POSE),--pose $(POSE)) $(if $(RESUME),--resume)
+
+# Every global planner over the same seeded start/goal pairs (reachable by the lattice), both
+# TurtleBot 3 footprints, one call at a time (OMPL's budgets are wall time); WORLDS=a,b PAIRS=N
+# PLANNERS=a,b ROBOTS=a,b SEED=N.
+bench-plan: build
+	@$(ENV) python test/benchmarks/bench_plan.py $(if $(WORLDS),--worlds $(WORLDS)) $(if $(PAIRS),--pairs $(PAIRS)) \
+	  $(if $(PLANNERS),--planners $(PLANNERS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(SEED),--seed $(SEED))
 
 # Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
 # detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).

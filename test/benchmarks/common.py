@@ -6,6 +6,8 @@ import subprocess
 from pathlib import Path
 
 TOP = Path(__file__).resolve().parents[2]
+SHARED_WORLDS = TOP.parent / "shared" / "worlds"    # real building maps (../shared/worlds/README.md)
+REAL_MAPS = ("depot", "tb3_sandbox")                # the two of them, by name
 
 
 def machine() -> str:
