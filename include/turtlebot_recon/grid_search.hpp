@@ -23,6 +23,7 @@
 
 #include "turtlebot_recon/bresenham.hpp"
 #include "turtlebot_recon/costmap.hpp"
+#include "turtlebot_recon/two_pointer_shortcut.hpp"
 
 namespace turtlebot_recon::planning {
 
@@ -419,11 +420,11 @@ class GridSearch {
   int targets_left_ = 0;              // targets not settled yet
 };
 
-// Line-of-sight shortcut of a grid path (seed 001's refinePath, seed 003's two-pointer
-// shortcut). From waypoint i, keep the farthest later index j whose Bresenham line i -> j
-// stays, after its first cell, on cells with cost < lethal_cost and <= the highest cost of the
-// path cells i+1..j (so a shortcut never runs closer to obstacles than the path already did);
-// continue from j. Cell i itself is left out of both: a path that starts next to a wall (the
+// Line-of-sight shortcut of a grid path (two_pointer_shortcut.hpp: seed 001's refinePath, seed
+// 003's two-pointer shortcut). From waypoint i, keep the farthest later index j whose
+// Bresenham line i -> j stays, after its first cell, on cells with cost < lethal_cost and <=
+// the highest cost of the path cells i+1..j (so a shortcut never runs closer to obstacles than
+// the path already did); continue from j. Cell i itself is left out of both: a path that starts next to a wall (the
 // robot stands there) would otherwise license a line along the wall at that cost, where the
 // path itself leaves the wall at once.
 // Unknown cells (255) never lie on a shortcut. Paths of 0-2 cells come back unchanged.
@@ -442,31 +443,27 @@ inline std::vector<Cell> shortcut_path(const std::vector<Cell>& path, const std:
     return static_cast<int>(cost[static_cast<size_t>(c.row) * cols + c.col]);
   };
 
-  std::vector<Cell> out{path[0]};
-  std::vector<int> ceiling(n);  // ceiling[j]: highest cost a line i -> j may cross
-  int i = 0;
-  while (i < n - 1) {
-    // 1. Highest cost of the original path cells i+1..j, for every j > i.
-    int highest = 0;
-    for (int j = i + 1; j < n; ++j) {
-      highest = std::max(highest, cost_at(path[j]));
-      ceiling[j] = std::min(highest, lethal_cost - 1);
+  // ceiling[j]: the highest cost a line i -> j may cross (the path cells i+1..j's highest),
+  // for the i it was last filled for
+  std::vector<int> ceiling(n);
+  int ceiling_of = -1;
+  auto connects = [&](int i, int j) {
+    if (ceiling_of != i) {
+      int highest = 0;
+      for (int k = i + 1; k < n; ++k) {
+        highest = std::max(highest, cost_at(path[k]));
+        ceiling[k] = std::min(highest, lethal_cost - 1);
+      }
+      ceiling_of = i;
     }
-    // 2. Farthest j first: the first line that stays under its ceiling wins; the next
-    //    path cell (j = i + 1) is always reachable.
-    int j = n - 1;
-    for (; j > i + 1; --j) {
-      const int limit = ceiling[j];
-      const Cell from = path[i];
-      const bool clear = bresenham_line(from.row, from.col, path[j].row, path[j].col, [&](int r, int c) {
-        return (r == from.row && c == from.col) || cost_at(Cell{r, c}) <= limit;
-      });
-      if (clear) break;
-    }
-    // 3. Keep j and continue from it.
-    out.push_back(path[j]);
-    i = j;
-  }
+    const int limit = ceiling[j];
+    const Cell from = path[i];
+    return bresenham_line(from.row, from.col, path[j].row, path[j].col, [&](int r, int c) {
+      return (r == from.row && c == from.col) || cost_at(Cell{r, c}) <= limit;
+    });
+  };
+  std::vector<Cell> out;
+  for (int k : two_pointer_shortcut(n, connects)) out.push_back(path[k]);
   return out;
 }
 

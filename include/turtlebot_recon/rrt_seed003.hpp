@@ -30,6 +30,8 @@
 #include <string>
 #include <vector>
 
+#include "turtlebot_recon/two_pointer_shortcut.hpp"
+
 namespace turtlebot_recon::planning {
 
 struct RrtSeed003Params {
@@ -142,24 +144,6 @@ class HitBoxGrid {
   mutable std::vector<double> events_;  // free_along's scratch
 };
 
-// Seed 003's two-pointer shortcut: from vertex i keep the farthest later vertex j that i
-// connects to (scanning j down from the last), continue from j. No kept vertex then connects
-// to the one after next: each skipped the farthest it could.
-template <class Connects>
-std::vector<Point2> two_pointer_shortcut(const std::vector<Point2>& path, Connects&& connects) {
-  const int n = static_cast<int>(path.size());
-  if (n <= 2) return path;
-  std::vector<Point2> out{path[0]};
-  int i = 0;
-  while (i < n - 1) {
-    int j = n - 1;
-    while (j > i + 1 && !connects(path[i], path[j])) --j;
-    out.push_back(path[j]);
-    i = j;
-  }
-  return out;
-}
-
 class RrtSeed003 {
  public:
   RrtSeed003(const std::int8_t* occupancy, int rows, int cols, const RrtSeed003Params& p)
@@ -209,10 +193,14 @@ class RrtSeed003 {
     out.found = true;
     for (int k = reached; k >= 0; k = tree[k].parent) out.tree_path.push_back(tree[k].at);
     std::reverse(out.tree_path.begin(), out.tree_path.end());
-    out.path = p_.shortcut ? two_pointer_shortcut(out.tree_path, [this](Point2 a, Point2 b) {
-      return grid_.free_along(a, b);
-    })
-                           : out.tree_path;
+    if (!p_.shortcut) {
+      out.path = out.tree_path;
+      return out;
+    }
+    const std::vector<Point2>& v = out.tree_path;
+    for (int k : two_pointer_shortcut(static_cast<int>(v.size()),
+                                      [&](int i, int j) { return grid_.free_along(v[i], v[j]); }))
+      out.path.push_back(v[k]);
     return out;
   }
 
