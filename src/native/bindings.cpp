@@ -23,6 +23,7 @@ void register_body_field(py::module_& m);  // body_field.cpp (the controllers' o
 void register_dwa(py::module_& m);  // dwa.cpp (the dynamic window approach)
 void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
 void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
+void register_sampling(py::module_& m);  // sampling_planner.cpp (OMPL's planners)
 void register_rrt_seed003(py::module_& m);  // rrt_seed003.cpp (seed 003's RRT, the baseline)
 
 namespace {
@@ -73,5 +74,6 @@ PYBIND11_MODULE(_native, m) {
   register_dwa(m);
   register_ilqr(m);
   register_mppi(m);
+  register_sampling(m);
   register_rrt_seed003(m);
 }

@@ -1,0 +1,73 @@
+// OMPL's sampling planners over the robot's oriented footprint: RRT-Connect, RRT*, Informed
+// RRT*, PRM* and BIT* in SE(2), next to the state lattice (lattice_search.hpp).
+//
+// The motion model is the lattice's and the navigator's follower's: a differential-drive
+// robot turns in place, drives straight, turns in place. A motion from (x1, y1, yaw1) to
+// (x2, y2, yaw2) turns at p1 from yaw1 to the segment's direction d, drives forward along d to
+// p2, turns at p2 from d to yaw2. It is valid when the footprint keeps `margin_m` off every
+// obstacle cell's square all the way (turn_margin_m while turning; footprint.hpp's exact test,
+// answered first by the distance field far from obstacles) and the robot's centre never leaves known free cells
+// (the lattice never enters unknown ones either). Its cost is the lattice's: metres driven
+// plus turn_cost_m_per_rad per radian turned. The motion is not symmetric (forward only; a
+// box sweeps other cells turning at p1 than at p2), so the state space says so and RRT*
+// checks each direction; PRM*'s roadmap is undirected, so there an edge must be valid both ways.
+//
+// The path-length objective is this cost; its heuristic, the SE(2) distance with the yaw
+// weighted by turn_cost_m_per_rad (|dp| + k |dyaw|), never exceeds it (the turns of any path
+// add up to at least the net change of heading), so RRT*'s, Informed RRT*'s and BIT*'s
+// heuristics stay admissible. Half the samples are drawn at cells where the robot can turn
+// in place (its turning disc fits): uniform samples almost never land in a maze corridor's
+// few centimetres about its centre line where a box robot turns, and without them no path
+// rounds a corner. After the solve, OMPL's simplifier (vertex reduction, shortcuts,
+// collapsing close vertices) shortens the path; then each inner vertex's yaw is set to the
+// next segment's direction, the path the follower drives (a turn at each vertex straight from
+// one segment's direction to the next), and that path is checked again.
+//
+// Poses are in metres from the grid's corner (cell (0, 0) spans [0, res] x [0, res]); grids
+// row-major, row 0 at the smallest y.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "turtlebot_recon/footprint.hpp"
+
+namespace turtlebot_recon::planning {
+
+struct SamplingRequest {
+  std::string planner = "rrtconnect";  // rrtconnect | rrtstar | informed_rrtstar | prmstar | bitstar
+  double budget_s = 0.2;               // the solve's wall-time limit; the simplifier gets as much again at most
+  double margin_m = 0.02;              // body to obstacle edge (the lattice's margin_m)
+  double turn_margin_m = 0.01;         // the same while turning in place (the lattice's turn_margin_m)
+  double turn_cost_m_per_rad = 0.3;    // metres charged per radian turned (the lattice's)
+  int occupied_threshold = 65;         // occupancy >= this: obstacle
+  bool simplify = true;
+  std::array<double, 3> start{};       // x, y (m from the grid's corner), yaw (rad)
+  std::array<double, 2> goal{};        // x, y (m from the grid's corner)
+};
+
+struct SampledPath {
+  std::vector<std::array<double, 3>> poses;  // start ... goal, inner yaws along the next segment
+  bool solved = false;       // an exact solution, valid as the follower drives it
+  std::string reason;        // why not, when not solved
+  double solve_s = 0.0;      // wall time of the planner's solve
+  double simplify_s = 0.0;   // wall time of the simplification
+  double length_m = 0.0;     // driven (x-y)
+  double turned_rad = 0.0;   // turned in place, the start's and the goal's turns included
+  double cost_m = 0.0;       // length_m + turn_cost_m_per_rad * turned_rad
+};
+
+// The planners' names, in the order above.
+const std::vector<std::string>& sampling_planners();
+
+// Plans start -> goal for `footprint` on `occupancy` (rows x cols int8, -1 unknown, 0..100);
+// the goal states are the goal's position at each of `goal_yaws` where the footprint fits.
+// Throws std::invalid_argument for an unknown planner or a bad argument; a start or goal off
+// the grid or where the footprint does not fit is a reason, not an exception.
+SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, double resolution_m,
+                          const Footprint& footprint, const SamplingRequest& request,
+                          const std::vector<double>& goal_yaws);
+
+}  // namespace turtlebot_recon::planning

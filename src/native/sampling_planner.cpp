@@ -1,0 +1,521 @@
+// Sampling area of turtlebot_recon._native: OMPL's planners over the oriented footprint
+// (include/turtlebot_recon/sampling_planner.hpp says the model), and their binding.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <ompl/base/ProblemDefinition.h>
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/goals/GoalStates.h>
+#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
+#include <ompl/base/samplers/InformedStateSampler.h>
+#include <ompl/base/spaces/SE2StateSpace.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <ompl/geometric/PathSimplifier.h>
+#include <ompl/geometric/planners/informedtrees/BITstar.h>
+#include <ompl/geometric/planners/prm/PRMstar.h>
+#include <ompl/geometric/planners/rrt/InformedRRTstar.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/util/Console.h>
+
+#include "numpy_args.hpp"
+#include "turtlebot_recon/body_field.hpp"
+#include "turtlebot_recon/sampling_planner.hpp"
+
+namespace py = pybind11;
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+namespace turtlebot_recon::planning {
+namespace {
+
+using Pose = std::array<double, 3>;
+
+double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
+
+// OMPL's SO(2) holds [-pi, pi).
+double so2(double a) {
+  const double w = wrap(a);
+  return w >= kPi ? w - 2.0 * kPi : w;
+}
+
+// Turn in place, drive forward, turn in place: which poses it passes and what it costs.
+class TurnDriveModel {
+ public:
+  TurnDriveModel(const std::int8_t* occupancy, int rows, int cols, double res,
+                 const Footprint& fp, const SamplingRequest& rq)
+      : occ_(occupancy), rows_(rows), cols_(cols), res_(res), fp_(fp), margin_(rq.margin_m),
+        turn_margin_(rq.turn_margin_m), k_(rq.turn_cost_m_per_rad),
+        threshold_(rq.occupied_threshold),
+        field_(occupancy, rows, cols, res, 0.0, 0.0, rq.occupied_threshold),
+        reach_(control::outline_body(fp, res).radius_m) {
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c)
+        if (known_free(r, c) && field_.cell(r, c) >= fp.radius_m + turn_margin_)
+          turn_spots_.push_back({(c + 0.5) * res, (r + 0.5) * res});
+  }
+
+  // Cell centres where the turning disc (radius_m about base_footprint) keeps turn_margin_m
+  // off every obstacle: the robot turns there at will (for a round robot: where it fits).
+  const std::vector<std::array<double, 2>>& turn_spots() const { return turn_spots_; }
+
+  // The points where a robot that cannot turn at (x, y, yaw) can, driving straight along yaw
+  // (sign +1: ahead of it, the start's way out; -1: behind it, a goal's way in), up to
+  // `reach_m`, as long as the footprint fits on the way.
+  void add_line_spots(double x, double y, double yaw, int sign, double reach_m) {
+    const double ux = sign * std::cos(yaw), uy = sign * std::sin(yaw);
+    for (double t = 0.5 * res_; t <= reach_m; t += 0.5 * res_) {
+      const double px = x + ux * t, py = y + uy * t;
+      if (!pose_clear(px, py, yaw)) break;
+      if (field_.at(px, py) >= fp_.radius_m + turn_margin_ + 0.5 * res_) line_spots_.push_back({px, py});
+    }
+  }
+  const std::vector<std::array<double, 2>>& line_spots() const { return line_spots_; }
+
+  // The centre on a known free cell and the footprint `margin` off every obstacle.
+  bool pose_clear(double x, double y, double yaw) const { return pose_clear(x, y, yaw, margin_); }
+  bool pose_clear(double x, double y, double yaw, double margin) const {
+    if (!(std::isfinite(x) && std::isfinite(y) && std::isfinite(yaw))) return false;
+    if (!known_free(static_cast<int>(std::floor(y / res_)), static_cast<int>(std::floor(x / res_))))
+      return false;
+    // Far from obstacles the field answers: its values may run up to about half a cell long
+    // (centre-to-centre distances, interpolated), so one cell of slack.
+    if (field_.at(x, y) - reach_ >= margin + res_) return true;
+    auto is_obstacle = [this](int rr, int cc) {
+      if (rr < 0 || rr >= rows_ || cc < 0 || cc >= cols_) return true;
+      return occ_[static_cast<size_t>(rr) * cols_ + cc] >= threshold_;
+    };
+    return footprint_clear_at(fp_, margin, res_, x, y, yaw, is_obstacle);
+  }
+
+  // Turning in place at (x, y) from `from` to `to` the short way, with the lattice's
+  // turn_margin_m: the body's farthest point moves at most half a cell between checks. A
+  // round robot's turn sweeps nothing new.
+  bool turn_clear(double x, double y, double from, double to) const {
+    const double delta = wrap(to - from);
+    if (fp_.round()) return pose_clear(x, y, to);
+    const int n = std::max(1, static_cast<int>(std::ceil(std::fabs(delta) * reach_ / (0.5 * res_))));
+    for (int i = 1; i < n; ++i)
+      if (!pose_clear(x, y, from + delta * i / n, turn_margin_)) return false;
+    return pose_clear(x, y, to);
+  }
+
+  // Driving straight from (x1, y1) to (x2, y2) at `yaw`, checked every half cell.
+  bool drive_clear(double x1, double y1, double x2, double y2, double yaw) const {
+    const int n = std::max(1, static_cast<int>(std::ceil(std::hypot(x2 - x1, y2 - y1) / (0.5 * res_))));
+    for (int i = 1; i <= n; ++i)
+      if (!pose_clear(x1 + (x2 - x1) * i / n, y1 + (y2 - y1) * i / n, yaw)) return false;
+    return true;
+  }
+
+  bool motion_clear(const Pose& a, const Pose& b) const {
+    const double d = std::hypot(b[0] - a[0], b[1] - a[1]);
+    if (d < 1e-9) return turn_clear(a[0], a[1], a[2], b[2]);
+    const double dir = std::atan2(b[1] - a[1], b[0] - a[0]);
+    return turn_clear(a[0], a[1], a[2], dir) && drive_clear(a[0], a[1], b[0], b[1], dir) &&
+           turn_clear(b[0], b[1], dir, b[2]);
+  }
+
+  // {metres driven, radians turned}
+  static std::pair<double, double> motion(const Pose& a, const Pose& b) {
+    const double d = std::hypot(b[0] - a[0], b[1] - a[1]);
+    if (d < 1e-9) return {0.0, std::fabs(wrap(b[2] - a[2]))};
+    const double dir = std::atan2(b[1] - a[1], b[0] - a[0]);
+    return {d, std::fabs(wrap(dir - a[2])) + std::fabs(wrap(b[2] - dir))};
+  }
+  double cost(const Pose& a, const Pose& b) const {
+    const auto [driven, turned] = motion(a, b);
+    return driven + k_ * turned;
+  }
+  double turn_cost() const { return k_; }
+
+ private:
+  bool known_free(int r, int c) const {
+    if (r < 0 || r >= rows_ || c < 0 || c >= cols_) return false;
+    const std::int8_t v = occ_[static_cast<size_t>(r) * cols_ + c];
+    return v >= 0 && v < threshold_;
+  }
+
+  const std::int8_t* occ_;
+  int rows_, cols_;
+  double res_;
+  Footprint fp_;
+  double margin_, turn_margin_, k_;
+  int threshold_;
+  control::DistanceField field_;
+  double reach_;  // the body's farthest point from base_footprint
+  std::vector<std::array<double, 2>> turn_spots_, line_spots_;
+};
+
+// Samples where the robot can turn, at a uniform yaw: 45 % at the centre of such a cell, 10 %
+// on the start's or a goal's line (TurnDriveModel::add_line_spots); the other 45 % uniform
+// over the space. A box robot turns in place only where its turning disc fits, in a corridor
+// of a maze a band a few centimetres wide about the centre line, and leaves a start (reaches
+// a goal) off that band only straight along its heading; uniform samples almost never land
+// on either, so a path round a corner is almost never found.
+class TurnSpotSampler : public ob::StateSampler {
+ public:
+  TurnSpotSampler(const ob::StateSpace* space, const TurnDriveModel& model)
+      : ob::StateSampler(space), model_(model), uniform_(space->allocDefaultStateSampler()) {}
+  void sampleUniform(ob::State* state) override {
+    const double u = rng_.uniform01();
+    const auto& spots = u < 0.1 && !model_.line_spots().empty() ? model_.line_spots() : model_.turn_spots();
+    if (spots.empty() || u >= 0.55) return uniform_->sampleUniform(state);
+    const auto& p = spots[static_cast<size_t>(rng_.uniformInt(0, static_cast<int>(spots.size()) - 1))];
+    auto* se2 = state->as<ob::SE2StateSpace::StateType>();
+    se2->setXY(p[0], p[1]);
+    se2->setYaw(rng_.uniformReal(-kPi, kPi));
+  }
+  void sampleUniformNear(ob::State* state, const ob::State* near, double distance) override {
+    uniform_->sampleUniformNear(state, near, distance);
+  }
+  void sampleGaussian(ob::State* state, const ob::State* mean, double std_dev) override {
+    uniform_->sampleGaussian(state, mean, std_dev);
+  }
+
+ private:
+  const TurnDriveModel& model_;
+  ob::StateSamplerPtr uniform_;
+};
+
+// Informed RRT*'s and BIT*'s sampler: TurnSpotSampler's samples whose heuristic solution cost
+// (OMPL's: cost-to-come heuristic + cost-to-go) beats the best cost so far, by rejection
+// (OMPL's direct ellipse sampler would draw its own uniform samples instead).
+class TurnSpotInformedSampler : public ob::InformedSampler {
+ public:
+  TurnSpotInformedSampler(const ob::ProblemDefinitionPtr& pdef, unsigned int max_calls)
+      : ob::InformedSampler(pdef, max_calls), sampler_(space_->allocStateSampler()) {}
+  bool sampleUniform(ob::State* state, const ob::Cost& max_cost) override {
+    for (unsigned int i = 0; i < numIters_; ++i) {
+      sampler_->sampleUniform(state);
+      if (opt_->isCostBetterThan(heuristicSolnCost(state), max_cost)) return true;
+    }
+    return false;
+  }
+  bool sampleUniform(ob::State* state, const ob::Cost& min_cost, const ob::Cost& max_cost) override {
+    for (unsigned int i = 0; i < numIters_; ++i) {
+      sampler_->sampleUniform(state);
+      const ob::Cost c = heuristicSolnCost(state);
+      if (opt_->isCostBetterThan(c, max_cost) && !opt_->isCostBetterThan(c, min_cost)) return true;
+    }
+    return false;
+  }
+  bool hasInformedMeasure() const override { return false; }
+  double getInformedMeasure(const ob::Cost&) const override { return space_->getMeasure(); }
+
+ private:
+  ob::StateSamplerPtr sampler_;
+};
+
+Pose pose_of(const ob::State* s) {
+  const auto* se2 = s->as<ob::SE2StateSpace::StateType>();
+  return {se2->getX(), se2->getY(), se2->getYaw()};
+}
+
+// SE(2) whose motions (TurnDriveModel's) are not the same both ways.
+class ForwardSe2Space : public ob::SE2StateSpace {
+ public:
+  bool hasSymmetricInterpolate() const override { return false; }
+};
+
+// Directed trees ask for the motion s1 -> s2. An undirected roadmap (PRM*) may drive an edge
+// either way: there an edge must be clear both ways, but for the start's edges (driven away
+// from it) and a goal's (driven into it), which only one way need be.
+class TurnDriveValidator : public ob::MotionValidator {
+ public:
+  TurnDriveValidator(const ob::SpaceInformationPtr& si, const TurnDriveModel& model,
+                     bool undirected, const Pose& start, const std::vector<Pose>& goals)
+      : ob::MotionValidator(si), model_(model), undirected_(undirected), start_(start),
+        goals_(goals) {}
+  bool checkMotion(const ob::State* s1, const ob::State* s2) const override {
+    const Pose a = pose_of(s1), b = pose_of(s2);
+    bool ok;
+    if (!undirected_) ok = model_.motion_clear(a, b);
+    else if (a == start_ || is_goal(b)) ok = model_.motion_clear(a, b);
+    else if (b == start_ || is_goal(a)) ok = model_.motion_clear(b, a);
+    else ok = model_.motion_clear(a, b) && model_.motion_clear(b, a);
+    ok ? ++valid_ : ++invalid_;
+    return ok;
+  }
+  // Planners that keep part of a motion get none of it: the last valid state is the first.
+  bool checkMotion(const ob::State* s1, const ob::State* s2,
+                   std::pair<ob::State*, double>& last_valid) const override {
+    if (checkMotion(s1, s2)) return true;
+    if (last_valid.first != nullptr) si_->copyState(last_valid.first, s1);
+    last_valid.second = 0.0;
+    return false;
+  }
+
+ private:
+  bool is_goal(const Pose& p) const { return std::find(goals_.begin(), goals_.end(), p) != goals_.end(); }
+
+  const TurnDriveModel& model_;
+  bool undirected_;
+  Pose start_;
+  std::vector<Pose> goals_;
+};
+
+class TurnDriveObjective : public ob::PathLengthOptimizationObjective {
+ public:
+  TurnDriveObjective(const ob::SpaceInformationPtr& si, const TurnDriveModel& model)
+      : ob::PathLengthOptimizationObjective(si), model_(model) {
+    description_ = "metres driven + turn cost";
+  }
+  ob::Cost motionCost(const ob::State* s1, const ob::State* s2) const override {
+    return ob::Cost(model_.cost(pose_of(s1), pose_of(s2)));
+  }
+  // |dp| + k |dyaw| (the space's distance): a lower bound of any path's cost.
+  ob::Cost motionCostHeuristic(const ob::State* s1, const ob::State* s2) const override {
+    return ob::Cost(si_->distance(s1, s2));
+  }
+  bool isSymmetric() const override { return false; }
+  ob::InformedSamplerPtr allocInformedStateSampler(const ob::ProblemDefinitionPtr& pdef,
+                                                   unsigned int max_calls) const override {
+    return std::make_shared<TurnSpotInformedSampler>(pdef, max_calls);
+  }
+
+ private:
+  const TurnDriveModel& model_;
+};
+
+// The trees' extension step (m, with the yaw's weight): OMPL's default, a fifth of the space's
+// extent, is metres in a building: nearly every long step ends in a wall.
+constexpr double kRangeM = 1.0;
+
+ob::PlannerPtr make_planner(const std::string& name, const ob::SpaceInformationPtr& si) {
+  if (name == "rrtconnect") {
+    auto p = std::make_shared<og::RRTConnect>(si);
+    p->setRange(kRangeM);
+    return p;
+  }
+  if (name == "rrtstar" || name == "informed_rrtstar") {
+    auto p = name == "rrtstar" ? std::make_shared<og::RRTstar>(si) : std::make_shared<og::InformedRRTstar>(si);
+    p->setRange(kRangeM);
+    return p;
+  }
+  if (name == "prmstar") return std::make_shared<og::PRMstar>(si);
+  if (name == "bitstar") {
+    // OMPL 1.5's BIT* (Debian 12's) may prune the start and the goal of a direct start-goal
+    // solution when there are several goal states, then dereferences them in
+    // bestPathFromGoalToStart (a segfault; ompl/ompl#949, fixed in 1.6 by #1070): no pruning.
+    auto bit = std::make_shared<og::BITstar>(si);
+    bit->setPruning(false);
+    return bit;
+  }
+  std::string names;
+  for (const std::string& n : sampling_planners()) names += (names.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("plan_sampling: unknown planner '" + name + "' (one of " + names + ")");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+const std::vector<std::string>& sampling_planners() {
+  static const std::vector<std::string> names{"rrtconnect", "rrtstar", "informed_rrtstar",
+                                              "prmstar", "bitstar"};
+  return names;
+}
+
+SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, double resolution_m,
+                          const Footprint& footprint, const SamplingRequest& rq,
+                          const std::vector<double>& goal_yaws) {
+  const char* fn = "plan_sampling";
+  validate(footprint, fn);
+  if (rows <= 0 || cols <= 0) throw std::invalid_argument(std::string(fn) + ": empty grid");
+  if (!(std::isfinite(resolution_m) && resolution_m > 0))
+    throw std::invalid_argument(std::string(fn) + ": resolution must be > 0 m");
+  if (!(std::isfinite(rq.budget_s) && rq.budget_s > 0))
+    throw std::invalid_argument(std::string(fn) + ": budget_s must be > 0");
+  if (!(std::isfinite(rq.margin_m) && rq.margin_m > 0))
+    throw std::invalid_argument(std::string(fn) + ": margin_m must be > 0");
+  if (!(std::isfinite(rq.turn_margin_m) && rq.turn_margin_m >= 0))
+    throw std::invalid_argument(std::string(fn) + ": turn_margin_m must be >= 0");
+  if (!(std::isfinite(rq.turn_cost_m_per_rad) && rq.turn_cost_m_per_rad >= 0))
+    throw std::invalid_argument(std::string(fn) + ": turn_cost_m_per_rad must be >= 0");
+  for (double v : {rq.start[0], rq.start[1], rq.start[2], rq.goal[0], rq.goal[1]})
+    if (!std::isfinite(v)) throw std::invalid_argument(std::string(fn) + ": start and goal must be finite");
+
+  SampledPath out;
+  TurnDriveModel model(occupancy, rows, cols, resolution_m, footprint, rq);
+  if (!model.pose_clear(rq.start[0], rq.start[1], rq.start[2])) {
+    out.reason = "the start is off the map, on an unknown or obstacle cell, or the footprint does not fit there";
+    return out;
+  }
+  std::vector<double> yaws;
+  for (double yaw : goal_yaws)
+    if (std::isfinite(yaw) && model.pose_clear(rq.goal[0], rq.goal[1], yaw)) yaws.push_back(yaw);
+  if (yaws.empty()) {
+    out.reason = "the goal is off the map, on an unknown or obstacle cell, or the footprint fits there at none of the goal's headings";
+    return out;
+  }
+  model.add_line_spots(rq.start[0], rq.start[1], rq.start[2], +1, kRangeM);
+  for (double yaw : yaws) model.add_line_spots(rq.goal[0], rq.goal[1], yaw, -1, kRangeM);
+
+  auto space = std::make_shared<ForwardSe2Space>();
+  ob::RealVectorBounds bounds(2);
+  bounds.setLow(0, 0.0), bounds.setHigh(0, cols * resolution_m);
+  bounds.setLow(1, 0.0), bounds.setHigh(1, rows * resolution_m);
+  space->setBounds(bounds);
+  // The yaw's weight in the distance: the metres a radian of turning costs (> 0 for a metric).
+  space->setSubspaceWeight(1, std::max(model.turn_cost(), 1e-3));
+  space->setStateSamplerAllocator([&model](const ob::StateSpace* sp) -> ob::StateSamplerPtr {
+    return std::make_shared<TurnSpotSampler>(sp, model);
+  });
+  auto si = std::make_shared<ob::SpaceInformation>(space);
+  si->setStateValidityChecker([&model](const ob::State* s) {
+    const Pose p = pose_of(s);
+    return model.pose_clear(p[0], p[1], p[2]);
+  });
+  const Pose start_pose{rq.start[0], rq.start[1], so2(rq.start[2])};
+  std::vector<Pose> goal_poses;
+  for (double yaw : yaws) goal_poses.push_back({rq.goal[0], rq.goal[1], so2(yaw)});
+  si->setMotionValidator(std::make_shared<TurnDriveValidator>(si, model, rq.planner == "prmstar",
+                                                              start_pose, goal_poses));
+  si->setup();
+
+  ob::ScopedState<ob::SE2StateSpace> start(space);
+  start->setXY(start_pose[0], start_pose[1]);
+  start->setYaw(start_pose[2]);
+  auto goal = std::make_shared<ob::GoalStates>(si);
+  for (const Pose& p : goal_poses) {
+    ob::ScopedState<ob::SE2StateSpace> g(space);
+    g->setXY(p[0], p[1]);
+    g->setYaw(p[2]);
+    goal->addState(g);
+  }
+  auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+  pdef->addStartState(start);
+  pdef->setGoal(goal);
+  auto objective = std::make_shared<TurnDriveObjective>(si, model);
+  pdef->setOptimizationObjective(objective);
+
+  ob::PlannerPtr planner = make_planner(rq.planner, si);
+  planner->setProblemDefinition(pdef);
+  planner->setup();
+  auto t0 = std::chrono::steady_clock::now();
+  const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(rq.budget_s));
+  out.solve_s = seconds_since(t0);
+  if (status != ob::PlannerStatus::EXACT_SOLUTION || !pdef->hasExactSolution()) {
+    out.reason = std::string("no path within ") + std::to_string(rq.budget_s) + " s (" +
+                 status.asString() + ")";
+    return out;
+  }
+  og::PathGeometric path(*pdef->getSolutionPath()->as<og::PathGeometric>());
+
+  if (rq.simplify) {
+    t0 = std::chrono::steady_clock::now();
+    og::PathSimplifier simplifier(si, pdef->getGoal(), objective);
+    const ob::PlannerTerminationCondition ptc = ob::timedPlannerTerminationCondition(rq.budget_s);
+    for (bool better = true; better && !ptc;) {
+      better = simplifier.reduceVertices(path);
+      if (!ptc) better = simplifier.shortcutPath(path) || better;
+      if (!ptc) better = simplifier.collapseCloseVertices(path) || better;
+    }
+    out.simplify_s = seconds_since(t0);
+  }
+
+  // The path the follower drives: each inner vertex's yaw along the next segment.
+  std::vector<Pose> poses;
+  for (std::size_t i = 0; i < path.getStateCount(); ++i) {
+    const Pose p = pose_of(path.getState(i));
+    if (!poses.empty() && std::hypot(p[0] - poses.back()[0], p[1] - poses.back()[1]) < 1e-9 &&
+        i + 1 < path.getStateCount())
+      continue;  // a turn in place between two drives: the next drive's turn does it
+    poses.push_back(p);
+  }
+  for (std::size_t i = 1; i + 1 < poses.size(); ++i)
+    poses[i][2] = std::atan2(poses[i + 1][1] - poses[i][1], poses[i + 1][0] - poses[i][0]);
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    if (!model.motion_clear(poses[i - 1], poses[i])) {
+      out.reason = "the path's turns at its vertices, as the follower drives them, are not clear";
+      return out;
+    }
+    const auto [driven, turned] = TurnDriveModel::motion(poses[i - 1], poses[i]);
+    out.length_m += driven;
+    out.turned_rad += turned;
+  }
+  out.cost_m = out.length_m + model.turn_cost() * out.turned_rad;
+  out.poses = std::move(poses);
+  out.solved = true;
+  return out;
+}
+
+}  // namespace turtlebot_recon::planning
+
+namespace {
+
+namespace tp = turtlebot_recon::planning;
+using namespace turtlebot_recon::bindings;
+
+py::dict py_plan_sampling(const I8Grid& occupancy, double resolution, std::array<double, 3> start,
+                          std::pair<double, double> goal_xy, std::vector<double> goal_yaws,
+                          const std::string& planner, double budget_s,
+                          double footprint_length_m, double footprint_width_m,
+                          double footprint_offset_x_m, double radius_m, double margin_m,
+                          double turn_margin_m, double turn_cost_m_per_rad,
+                          int occupied_threshold, bool simplify) {
+  const Shape s = grid_shape(occupancy, "plan_sampling", "occupancy");
+  tp::SamplingRequest rq;
+  rq.planner = planner;
+  rq.budget_s = budget_s;
+  rq.margin_m = margin_m;
+  rq.turn_margin_m = turn_margin_m;
+  rq.turn_cost_m_per_rad = turn_cost_m_per_rad;
+  rq.occupied_threshold = occupied_threshold;
+  rq.simplify = simplify;
+  rq.start = start;
+  rq.goal = {goal_xy.first, goal_xy.second};
+  if (goal_yaws.empty()) fail("plan_sampling", "goal_yaws must name at least one heading");
+  const tp::Footprint footprint{footprint_length_m, footprint_width_m, footprint_offset_x_m, radius_m};
+  tp::SampledPath path;
+  {
+    py::gil_scoped_release release;
+    path = tp::plan_sampling(occupancy.data(), s.rows, s.cols, resolution, footprint, rq, goal_yaws);
+  }
+  py::array_t<double> poses({static_cast<py::ssize_t>(path.poses.size()), py::ssize_t{3}});
+  auto p = poses.mutable_unchecked<2>();
+  for (size_t i = 0; i < path.poses.size(); ++i)
+    for (int j = 0; j < 3; ++j) p(i, j) = path.poses[i][j];
+  py::dict out;
+  out["poses"] = poses;
+  out["solved"] = path.solved;
+  out["reason"] = path.reason;
+  out["solve_s"] = path.solve_s;
+  out["simplify_s"] = path.simplify_s;
+  out["length_m"] = path.length_m;
+  out["turned_rad"] = path.turned_rad;
+  out["cost_m"] = path.cost_m;
+  return out;
+}
+
+}  // namespace
+
+void register_sampling(py::module_& m) {
+  ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);  // OMPL's per-solve progress lines are noise here
+  m.def("sampling_planners", &tp::sampling_planners, "The OMPL planners plan_sampling runs, by name.");
+  m.def("plan_sampling", &py_plan_sampling, py::arg("occupancy"), py::arg("resolution"),
+        py::arg("start"), py::arg("goal_xy"), py::arg("goal_yaws"), py::arg("planner"),
+        py::arg("budget_s"), py::arg("footprint_length_m"), py::arg("footprint_width_m"),
+        py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("margin_m"),
+        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("occupied_threshold"), py::arg("simplify") = true,
+        "An OMPL plan start -> goal for the footprint (include/turtlebot_recon/sampling_planner.hpp):\n"
+        "start (x, y, yaw) and goal_xy in metres from the grid's corner, goal_yaws the headings the\n"
+        "goal may be reached at (those where the footprint fits are goal states). A dict: poses\n"
+        "(n, 3) start ... goal with each inner yaw along the next segment, solved (an exact,\n"
+        "followable path), reason (why not), solve_s, simplify_s, length_m, turned_rad, cost_m.\n"
+        "ValueError for an unknown planner or a bad argument.");
+}

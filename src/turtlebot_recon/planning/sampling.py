@@ -1,0 +1,68 @@
+"""OMPL's sampling planners for the oriented footprint: facade over ``_native.plan_sampling``.
+
+RRT-Connect, RRT*, Informed RRT*, PRM* and BIT* plan in SE(2) with the lattice's motion model
+and costs (include/turtlebot_recon/sampling_planner.hpp): turn in place, drive forward, turn
+in place; the footprint ``margin_m`` off every obstacle cell's square, the centre on known
+free cells; metres driven plus the turning cost. OMPL's simplifier shortens the path, and the
+path returned is the one the navigator's follower drives: straight segments, a turn in place
+at each vertex from one segment's direction to the next. Any-angle where the lattice keeps to
+16 headings, but random: OMPL draws from its own process-wide generator, so two runs differ.
+
+Poses are (x, y, yaw) in metres and radians in the grid's frame (``origin``: the (x, y) of
+cell (0, 0)'s corner), as in ``planning.lattice``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .. import _native
+from ..mapping.map_io import OCCUPIED_THRESH
+from ..robot import RobotSpec, footprint_args
+from .costmap import PlanningError
+from .lattice import LatticeSettings
+
+OMPL_PLANNERS = tuple(_native.sampling_planners())   # rrtconnect, rrtstar, informed_rrtstar, prmstar, bitstar
+
+
+@dataclass(frozen=True)
+class SampledPath:
+    poses: np.ndarray      # float (n, 3): start ... goal; each inner yaw along the next segment
+    length_m: float        # driven
+    turned_rad: float      # turned in place (the start's and the goal's turns included)
+    cost_m: float          # length_m + the lattice's turn cost per radian x turned_rad
+    solve_s: float         # wall time of OMPL's solve
+    simplify_s: float      # wall time of the simplification
+
+
+def plan_sampling(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
+                  robot: RobotSpec, start: Sequence[float], goal: Sequence[float],
+                  planner: str = "rrtconnect", budget_s: float = 0.2,
+                  settings: LatticeSettings = LatticeSettings(), simplify: bool = True) -> SampledPath:
+    """An OMPL plan from ``start`` (x, y, yaw) to ``goal`` ((x, y): at any of the lattice's
+    headings where the footprint fits; (x, y, yaw): at that yaw) within ``budget_s`` of solve
+    time (the simplifier may take as long again), with ``settings``' margin_m and turning cost.
+    Raises PlanningError with one line when there is none (start or goal blocked, no path in
+    the budget); ValueError for an unknown planner or a bad argument."""
+    settings = settings.with_robot(robot)
+    settings.validate("LatticeSettings")
+    ox, oy = float(origin[0]), float(origin[1])
+    if len(goal) >= 3 and goal[2] is not None:
+        yaws = [float(goal[2])]
+    else:
+        yaws = [yaw for _, _, yaw in _native.lattice_headings(settings.headings)]
+    out = _native.plan_sampling(
+        occupancy, resolution, (float(start[0]) - ox, float(start[1]) - oy, float(start[2])),
+        (float(goal[0]) - ox, float(goal[1]) - oy), yaws, planner, budget_s,
+        **footprint_args(robot), margin_m=settings.margin_m, turn_margin_m=settings.turn_margin_m,
+        turn_cost_m_per_rad=settings.turn_cost_m_per_rad, occupied_threshold=OCCUPIED_THRESH,
+        simplify=simplify)
+    if not out["solved"]:
+        raise PlanningError(f"plan_sampling ({planner}): {out['reason']}")
+    poses = out["poses"]
+    poses[:, 0] += ox
+    poses[:, 1] += oy
+    return SampledPath(poses=poses, length_m=out["length_m"], turned_rad=out["turned_rad"],
+                       cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
