@@ -7,8 +7,8 @@ grids. Robots: the waffle_pi (its 0.281 x 0.306 m box) and the burger (its 0.105
 Pairs (``sample_pairs``, fixed seed): 30 per world and robot; the start a lattice pose (a
 free cell's centre, one of the 16 lattice headings) where the footprint fits with the
 lattice's margin; the goal a free cell's centre at least 1 m away that the state lattice
-reaches from the start (``lattice_cost_to_come``); its heading the one the reference plan
-arrives with.
+reaches from the start (``lattice_cost_to_come``), given to every planner as (x, y): any
+heading, as the navigator's goals (the pair keeps the heading the reference arrives with).
 
 Planners, each called from the occupancy grid as a caller with a fresh map would (the time
 includes what it builds from the grid: distance fields, costmaps):
@@ -20,14 +20,18 @@ includes what it builds from the grid: distance fields, costmaps):
 - ``rrt_seed003``: seed 003's RRT (``planning.rrt_seed003``) with its own step and node limits,
   RNG seeded with the pair's index;
 - ``ompl_<planner>_<tier>``: ``planning.sampling.plan_sampling`` for each of OMPL_PLANNERS at
-  two budgets, tier ``0_05s`` (0.05 s) and tier ``0_2s`` (0.2 s; 1 s on the real maps).
+  two budgets, tier ``0_05s`` (0.05 s) and tier ``0_2s`` (0.2 s; 1 s on the real maps), with
+  config/lattice.yaml's margins and turn cost, the goal at any heading as the lattice's. OMPL
+  draws from its own process-wide generator (plan_sampling takes no seed): its figures vary a
+  little from run to run.
 
 Figures per planner, over all pairs: success rate (a path returned AND the footprint clear along
-it: poses every <= resolution / 2 of travel and every turn in place swept at <= resolution / 2
-of the body's farthest point, ``_native.footprint_clearance`` > 0, i.e. margin 0; a 2-D path is
-driven heading along each segment and turning in place at its vertices; an SE(2) path as its
-poses, interpolated), time median and p95 (ms, every call), length ratio (mean over successes
-of the path's driven length over the reference's) and minimum clearance (m, the least over its
+it: the path driven turn-drive-turn as the navigator's follower drives it, ``densify``, poses
+every <= resolution / 2 of travel and of the body's farthest point's arc when turning in place,
+``_native.footprint_clearance`` > 0, i.e. margin 0; a 2-D path faces along each segment and
+turns in place at its vertices), found rate (a path returned), the failures by reason
+(``failure_reason``), time median and p95 (ms, every call), length ratio (mean over successes of
+the path's driven length over the reference's) and minimum clearance (m, the least over its
 successful paths, capped at 0.5 m). The reference is the lattice's shortest driven path for the
 same footprint: plan_lattice with cost_weight 0, turns free and backward moves at the forward
 cost, so its cost is its driven length (16 headings: an any-angle path can be up to ~3 % shorter).
@@ -43,6 +47,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 import time
 from dataclasses import dataclass, replace
@@ -63,12 +68,7 @@ from turtlebot_recon.planning import (LatticeSettings, PlannerSettings, Planning
 from turtlebot_recon.robot import footprint_args, load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world  # noqa: E402
 
-try:        # the lead's OMPL planners (issue 33 item 3); until they are merged the bench runs without
-    from turtlebot_recon.planning.sampling import OMPL_PLANNERS, plan_sampling  # noqa: E402
-    OMPL_MISSING = ""
-except ImportError as exc:
-    OMPL_PLANNERS, plan_sampling = (), None
-    OMPL_MISSING = f"turtlebot_recon.planning.sampling is not importable ({exc})"
+from turtlebot_recon.planning.sampling import OMPL_PLANNERS, plan_sampling  # noqa: E402
 
 ROBOTS = ("turtlebot3_waffle_pi", "turtlebot3_burger")
 PAIRS_PER_WORLD = 30
@@ -152,28 +152,37 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
 
 # ---------------------------------------------------------------------- the collision check
 def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
-    """(m, 3) poses along ``path``: (n, 2) points are driven heading along each segment, turning
-    in place at the vertices; (n, 3) poses are interpolated (x, y linearly, yaw the short way).
-    Poses every <= res / 2 of travel and of the body's farthest point's arc when turning."""
+    """(m, 3) poses of the robot driving ``path`` turn-drive-turn, as the navigator's follower
+    does: from each pose it turns in place to the segment's direction (or its opposite, where
+    the pose faces back along it: the lattice's backward moves), drives straight, and turns to
+    the next pose's yaw. (n, 3) poses are taken as given; (n, 2) points (the 2-D planners, which
+    know no heading) face along each segment, from the first. Poses every <= res / 2 of travel
+    and of the arc of the body's farthest point (radius_m) when turning."""
     path = np.asarray(path, dtype=float)
     if path.shape[1] == 2:
         step = np.diff(path, axis=0)
-        keep = np.hypot(step[:, 0], step[:, 1]) > 1e-9
-        heading = np.arctan2(step[keep, 1], step[keep, 0])
-        a, b = path[:-1][keep], path[1:][keep]
-        # each segment as two poses at its heading; consecutive segments meet at a vertex, where
-        # the interpolation below turns in place from one heading to the next
-        path = np.column_stack([np.stack([a, b], axis=1).reshape(-1, 2), np.repeat(heading, 2)])
-        if len(path) == 0:
-            return path
-    d_xy = np.hypot(*np.diff(path[:, :2], axis=0).T)
-    d_yaw = geometry.wrap_angle(np.diff(path[:, 2]))
-    n = np.maximum(1, np.ceil(np.maximum(d_xy, np.abs(d_yaw) * robot.radius_m) / (0.5 * res))).astype(int)
-    parts = [path[:1]]
-    for i, k in enumerate(n):
-        t = (np.arange(1, k + 1) / k)[:, None]
-        xy = path[i, :2] + t * (path[i + 1, :2] - path[i, :2])
-        parts.append(np.column_stack([xy, path[i, 2] + t[:, 0] * d_yaw[i]]))
+        path = path[np.r_[True, np.hypot(step[:, 0], step[:, 1]) > 1e-9]]
+        step = np.diff(path, axis=0)
+        heading = np.arctan2(step[:, 1], step[:, 0])
+        path = np.column_stack([path, np.r_[heading, heading[-1:]] if len(heading) else np.zeros(len(path))])
+    keys = [path[0]]
+    for a, b in zip(path[:-1], path[1:]):
+        d = b[:2] - a[:2]
+        if np.hypot(*d) > 1e-9:
+            h = math.atan2(d[1], d[0])
+            if abs(geometry.wrap_angle(a[2] - h - math.pi)) < 1e-6:     # backing along it
+                h += math.pi
+            keys += [np.array([a[0], a[1], a[2] + geometry.wrap_angle(h - a[2])])]
+            keys += [np.array([b[0], b[1], keys[-1][2]])]
+        keys += [np.array([b[0], b[1], keys[-1][2] + geometry.wrap_angle(b[2] - keys[-1][2])])]
+    keys = np.array(keys)
+    d_xy = np.hypot(*np.diff(keys[:, :2], axis=0).T)
+    d_yaw = np.diff(keys[:, 2])
+    n = np.ceil(np.maximum(d_xy, np.abs(d_yaw) * robot.radius_m) / (0.5 * res)).astype(int)
+    parts = [keys[:1]]
+    for i in np.flatnonzero(n):
+        t = (np.arange(1, n[i] + 1) / n[i])[:, None]
+        parts.append(keys[i] + t * (keys[i + 1] - keys[i]))
     return np.concatenate(parts)
 
 
@@ -204,7 +213,8 @@ def call_planner(name: str, budget_s: float, occ, res, origin, robot, pair: Pair
     if name == "rrt_seed003":
         p = plan_rrt_seed003(occ, res, origin, robot, pair.start[:2], pair.goal[:2], seed=pair.index)
         return p.points, p.length_m
-    p = plan_sampling(occ, res, origin, robot, pair.start, pair.goal, planner=name, budget_s=budget_s, seed=pair.index)
+    p = plan_sampling(occ, res, origin, robot, pair.start, pair.goal[:2], planner=name, budget_s=budget_s,
+                      settings=navigator_lattice())
     return p.poses, p.length_m
 
 
@@ -243,13 +253,17 @@ def run_pair(world: str, real: bool, robot, occ, res, origin, pair: Pair, keys: 
 # ---------------------------------------------------------------------- figures
 FIGURES = ("success_rate", "found_rate", "time_ms_median", "time_ms_p95", "length_ratio", "min_clearance_m")
 
+# A planner's refusal of the start or goal (seed 003's RRT, OMPL's), not a search that failed.
+REFUSED = re.compile(r"off the|inside an obstacle|hit-box meets|does not fit there|fits there at none|is outside the")
+
+
 def failure_reason(row: dict) -> str:
-    """"collision" (a path whose footprint meets an obstacle), "no path" (none found), or
-    "refused" (the planner refused the start or goal: seed 003's hit-box needs more room than
-    the footprint the pairs are drawn for)."""
+    """"collision" (a path whose footprint meets an obstacle), "refused" (the planner refused
+    the start or goal: seed 003's hit-box needs more room than the footprint the pairs are drawn
+    for), else "no path" (none found, or the planner's own last check rejected the one it had)."""
     if row["found"]:
         return "collision"
-    return "no path" if ("no path" in row["error"] or "unreachable" in row["error"]) else "refused"
+    return "refused" if REFUSED.search(row["error"]) else "no path"
 
 
 def planner_figures(rows: list) -> dict:
@@ -332,16 +346,13 @@ def main() -> int:
     args = ap.parse_args()
     planners = []
     for p in (p for p in args.planners.split(",") if p):
-        if p == "ompl" or p in OMPL_PLANNERS or p.startswith("ompl_"):
-            if OMPL_MISSING:
-                print(f"bench-plan: OMPL planners skipped: {OMPL_MISSING}")
-                continue
+        if p == "ompl" or p in OMPL_PLANNERS or p.removeprefix("ompl_") in OMPL_PLANNERS:
             planners += list(OMPL_PLANNERS) if p == "ompl" else [p.removeprefix("ompl_")]
         elif p in BASE_PLANNERS:
             planners.append(p)
         else:
-            print(f"bench-plan: unknown planner '{p}'; choose from {', '.join(BASE_PLANNERS)}, ompl, "
-                  f"{', '.join(OMPL_PLANNERS) or '(OMPL planners: not available)'}")
+            print(f"bench-plan: unknown planner '{p}'; choose from {', '.join(BASE_PLANNERS)}, ompl "
+                  f"(all of {', '.join(OMPL_PLANNERS)}) or one of them")
             return 2
     planners = list(dict.fromkeys(planners))
     keys = planner_keys(planners)
@@ -379,8 +390,6 @@ def main() -> int:
     figures = summarise(rows, real)
     figures.update(pairs_per_world=args.pairs, seed=args.seed, worlds_run=[w.name for w in loaded],
                    robots_run=[r.name for r in robots], wall_s=round(time.monotonic() - t_start, 1))
-    if OMPL_MISSING:
-        figures["ompl_missing"] = OMPL_MISSING
     print_table(figures)
     write("plan", figures)
     return 0

@@ -93,6 +93,15 @@ def test_collision_check_sweeps_turns_in_place():
     assert not bench_plan.check_path(occ, RES, ORIGIN, WAFFLE, corner)[0]
 
 
+def test_densify_drives_backward_where_the_pose_faces_back():
+    # the lattice's backward move: yaw 0 while x decreases; no turn to face the other way
+    poses = bench_plan.densify(np.array([[1.0, 1.0, 0.0], [0.9, 1.0, 0.0]]), RES, WAFFLE)
+    assert np.all(poses[:, 2] == 0.0) and len(poses) == 5               # 0.1 m in 0.025 m steps
+    # a pose that faces across its segment turns to it, drives, and turns to the next pose's yaw
+    poses = bench_plan.densify(np.array([[1.0, 1.0, 0.0], [1.0, 1.1, 0.0]]), RES, WAFFLE)
+    assert poses[:, 2].max() == pytest.approx(math.pi / 2) and poses[-1, 2] == pytest.approx(0.0)
+
+
 def test_densify_spacing():
     path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
     poses = bench_plan.densify(path, RES, WAFFLE)
@@ -141,5 +150,10 @@ def test_headline_figures_worked_by_hand():
     assert f["time_ms_median_lattice"] == 25.0
     assert f["astar_shortcut_length_ratio"] is None
     assert f["failure_reasons"]["ompl_rrtstar_0_2s"] == {"no path": 1}
+    refused = dict(row("rrt_seed003", False), error="plan_rrt_seed003 (...): rrt_seed003: goal (3.0, 4.0) (x, y "
+                                                    "cells): its 8 x 8 cell hit-box meets an obstacle or the grid's edge")
+    collided = dict(row("lattice", False), found=True)
+    assert [bench_plan.failure_reason(r) for r in (refused, collided, row("lattice", False))] == \
+        ["refused", "collision", "no path"]
     assert bench_plan.planner_keys(["rrtconnect"]) == [("ompl_rrtconnect_0_05s", "rrtconnect", "0_05s"),
                                                        ("ompl_rrtconnect_0_2s", "rrtconnect", "0_2s")]
