@@ -165,16 +165,16 @@ def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
         step = np.diff(path, axis=0)
         heading = np.arctan2(step[:, 1], step[:, 0])
         path = np.column_stack([path, np.r_[heading, heading[-1:]] if len(heading) else np.zeros(len(path))])
-    keys = [path[0]]
+    keys = [path[0]]        # poses where a pure turn or a pure drive ends; yaw unwrapped
     for a, b in zip(path[:-1], path[1:]):
-        d = b[:2] - a[:2]
+        d, yaw = b[:2] - a[:2], keys[-1][2]
         if np.hypot(*d) > 1e-9:
             h = math.atan2(d[1], d[0])
-            if abs(geometry.wrap_angle(a[2] - h - math.pi)) < 1e-6:     # backing along it
+            if abs(geometry.wrap_angle(yaw - h - math.pi)) < 1e-6:      # backing along it
                 h += math.pi
-            keys += [np.array([a[0], a[1], a[2] + geometry.wrap_angle(h - a[2])])]
-            keys += [np.array([b[0], b[1], keys[-1][2]])]
-        keys += [np.array([b[0], b[1], keys[-1][2] + geometry.wrap_angle(b[2] - keys[-1][2])])]
+            yaw += geometry.wrap_angle(h - yaw)
+            keys += [np.array([a[0], a[1], yaw]), np.array([b[0], b[1], yaw])]
+        keys += [np.array([b[0], b[1], yaw + geometry.wrap_angle(b[2] - yaw)])]
     keys = np.array(keys)
     d_xy = np.hypot(*np.diff(keys[:, :2], axis=0).T)
     d_yaw = np.diff(keys[:, 2])

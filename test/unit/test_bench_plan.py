@@ -102,6 +102,12 @@ def test_densify_drives_backward_where_the_pose_faces_back():
     assert poses[:, 2].max() == pytest.approx(math.pi / 2) and poses[-1, 2] == pytest.approx(0.0)
 
 
+def test_densify_turns_the_short_way_across_pi():
+    # yaw 3.0 -> -3.0 is a 0.28 rad turn, not 6 rad; then a drive west (pi) turns 0.14 rad more
+    poses = bench_plan.densify(np.array([[1.0, 1.0, 3.0], [1.0, 1.0, -3.0], [0.9, 1.0, -3.0]]), RES, WAFFLE)
+    assert np.abs(np.diff(poses[:, 2])).sum() == pytest.approx((2 * math.pi - 6.0) + 2 * (math.pi - 3.0))
+
+
 def test_densify_spacing():
     path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
     poses = bench_plan.densify(path, RES, WAFFLE)
