@@ -5,10 +5,11 @@ random start/goal pairs, on every shipped world and the two real maps, for both 
 Worlds: every world in worlds/ and ../shared/worlds/{depot,tb3_sandbox}.yaml, as their true
 grids. Robots: the waffle_pi (its 0.281 x 0.306 m box) and the burger (its 0.105 m disc).
 Pairs (``sample_pairs``, fixed seed): 30 per world and robot; the start a lattice pose (a
-free cell's centre, one of the 16 lattice headings) where the footprint fits with the
-lattice's margin; the goal a free cell's centre at least 1 m away that the state lattice
-reaches from the start (``lattice_cost_to_come``), given to every planner as (x, y): any
-heading, as the navigator's goals (the pair keeps the heading the reference arrives with).
+free cell's centre, one of the 16 lattice headings) where the footprint keeps the lattice's
+margin + 1 mm; the goal a free cell's centre at least 1 m away that the state lattice reaches
+from the start (``lattice_cost_to_come``) and where the footprint keeps as much at the heading
+the reference plan arrives with; given to every planner as (x, y): any heading, as the
+navigator's goals.
 
 Planners, each called from the occupancy grid as a caller with a fresh map would (the time
 includes what it builds from the grid: distance fields, costmaps):
@@ -74,6 +75,9 @@ ROBOTS = ("turtlebot3_waffle_pi", "turtlebot3_burger")
 PAIRS_PER_WORLD = 30
 SEED = 33
 MIN_PAIR_DISTANCE_M = 1.0          # straight line, start to goal
+SPARE_M = 0.001                    # start and goal poses keep the lattice's margin + this: none
+                                   # exactly on it, where the planners' float checks disagree (OMPL's
+                                   # refused the burger 0.125 m from a wall, clearance 0.02 = margin)
 TIERS = {"0_05s": (0.05, 0.05), "0_2s": (0.2, 1.0)}   # OMPL budget (s): shipped worlds, real maps
 CLEARANCE_CAP_M = 0.5              # clearance is measured out to this far
 BASE_PLANNERS = ("lattice", "astar_shortcut", "rrt_seed003")
@@ -121,6 +125,7 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
     """``n`` pairs (module docstring); RuntimeError when fewer are found in ``tries_per_pair * n`` draws."""
     rng = np.random.default_rng(seed)
     nav, ref = navigator_lattice(), reference_lattice(robot)
+    spare = replace(nav, margin_m=nav.margin_m + SPARE_M)
     yaws = np.array([h[2] for h in _native.lattice_headings(nav.headings)])
     free = np.argwhere(occ == 0)
     pairs, tries = [], 0
@@ -130,7 +135,7 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
             raise RuntimeError(f"only {len(pairs)} of {n} pairs in {tries - 1} draws")
         r, c = free[rng.integers(len(free))]
         start = (*geometry.cell_to_xy((r, c), res, origin), float(yaws[rng.integers(len(yaws))]))
-        if not footprint_clear(occ, res, origin, robot, np.array([start]), nav)[0]:
+        if not footprint_clear(occ, res, origin, robot, np.array([start]), spare)[0]:
             continue
         reach = lattice_cost_to_come(occ, res, origin, robot, start, ref, snap_radius_m=0.0, turns_within_m=0.0)
         far = np.argwhere(np.isfinite(reach))
@@ -145,8 +150,10 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
             path = plan_lattice(occ, res, origin, robot, start, goal_xy, ref)
         except PlanningError:
             continue
-        pairs.append(Pair(len(pairs), tuple(round(v, 6) for v in start),
-                          (*goal_xy, float(path.poses[-1, 2])), float(path.length_m)))
+        goal = (*goal_xy, float(path.poses[-1, 2]))
+        if not footprint_clear(occ, res, origin, robot, np.array([goal]), spare)[0]:
+            continue
+        pairs.append(Pair(len(pairs), tuple(round(v, 6) for v in start), goal, float(path.length_m)))
     return pairs
 
 

@@ -45,12 +45,11 @@ def test_pairs_are_reachable_lattice_poses_at_least_a_metre_apart(pairs):
         assert [p.index for p in got] == [0, 1, 2, 3]
         for p in got:
             assert math.dist(p.start[:2], p.goal[:2]) >= bench_plan.MIN_PAIR_DISTANCE_M
-            assert bench_plan.check_path(occ, RES, ORIGIN, robot, np.array([p.start, p.start]))[0]
+            for pose in (p.start, p.goal):      # the lattice's 0.02 m margin + 1 mm, no pose on it
+                assert bench_plan.check_path(occ, RES, ORIGIN, robot, np.array([pose, pose]))[1] >= 0.021 - 1e-9
             path = plan_lattice(occ, RES, ORIGIN, robot, p.start, p.goal[:2], bench_plan.navigator_lattice())
             assert p.reference_m <= path.length_m + 1e-9      # the reference is the shortest driven
             assert p.reference_m >= math.dist(p.start[:2], p.goal[:2]) - 1e-9
-            # the goal pose (OMPL's goal) is where the reference arrives: the footprint fits there
-            assert bench_plan.check_path(occ, RES, ORIGIN, robot, np.array([p.goal, p.goal]))[0]
     again = bench_plan.sample_pairs(occ, RES, ORIGIN, BURGER, 4, seed=1)
     assert again == pairs[BURGER.name]                          # a fixed seed, the same pairs
 
