@@ -72,17 +72,15 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import TOP, commit, write  # noqa: E402
+from common import REAL_MAPS as REAL, SHARED_WORLDS as SHARED, TOP, commit, write  # noqa: E402
 
 from turtlebot_recon.evaluation import benchmark as bm, distance_until  # noqa: E402
 from turtlebot_recon.sim import WorldError, load_world  # noqa: E402
 
-SHARED = TOP.parent / "shared" / "worlds"
 RESULTS = TOP / "docs" / "results"         # committed sweeps: explore-<date>-<commit>[-<name>].json
 BENCH_DOC = TOP / "docs" / "benchmarks.md"
 TABLE_BEGIN, TABLE_END = "<!-- explore-table -->", "<!-- /explore-table -->"
 SHIPPED = ("house", "maze", "office", "arena")
-REAL = ("depot", "tb3_sandbox")
 # Worlds nobody tuned on (worldgen's garden, doors and cluttered): figures over them are reported
 # apart, with the prefix heldout_ (benchmark.figures), as the check that the tuning did not overfit.
 HELD_OUT = ("garden", "doors", "cluttered")

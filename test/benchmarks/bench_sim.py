@@ -21,13 +21,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import TOP, write  # noqa: E402
+from common import SHARED_WORLDS as SHARED, TOP, write  # noqa: E402
 
 from turtlebot_recon.robot import load_robot  # noqa: E402
 from turtlebot_recon.sim import load_world, worldgen  # noqa: E402
 from turtlebot_recon.sim.simulator import SimSettings, Simulator  # noqa: E402
 
-SHARED = TOP.parent / "shared" / "worlds"
 WINDOW_S = float(os.environ.get("BENCH_WINDOW_S", "20"))
 
 
