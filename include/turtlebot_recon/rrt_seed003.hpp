@@ -180,8 +180,9 @@ class RrtSeed003 {
       // 4. valid node and connection
       if (!grid_.free_at(next) || !grid_.free_along(from, next)) continue;
       tree.push_back({next, near});
-      // 5. the goal within one step
-      if (std::hypot(goal.x - next.x, goal.y - next.y) <= p_.step_cells &&
+      // 5. the goal within one step (a node itself, within max_nodes)
+      if (static_cast<int>(tree.size()) < p_.max_nodes &&
+          std::hypot(goal.x - next.x, goal.y - next.y) <= p_.step_cells &&
           grid_.free_along(next, goal)) {
         tree.push_back({goal, static_cast<int>(tree.size()) - 1});
         reached = static_cast<int>(tree.size()) - 1;
