@@ -4,13 +4,15 @@
 // The motion model is the lattice's and the navigator's follower's: a differential-drive
 // robot turns in place, drives straight, turns in place. A motion from (x1, y1, yaw1) to
 // (x2, y2, yaw2) turns at p1 from yaw1 to the segment's direction d, drives forward along d to
-// p2, turns at p2 from d to yaw2. It is valid when the footprint keeps `margin_m` off every
+// p2, turns at p2 from d to yaw2; or, where the robot may back (the lattice's backward moves,
+// dearer by reverse_cost_factor), faces the other way and drives backward. It is valid when the footprint keeps `margin_m` off every
 // obstacle cell's square all the way (turn_margin_m while turning; footprint.hpp's exact test,
 // answered first by the distance field far from obstacles) and the robot's centre never leaves known free cells
 // (the lattice never enters unknown ones either). Its cost is the lattice's: metres driven
-// plus turn_cost_m_per_rad per radian turned. The motion is not symmetric (forward only; a
-// box sweeps other cells turning at p1 than at p2), so the state space says so and RRT*
-// checks each direction; PRM*'s roadmap is undirected, so there an edge must be valid both ways.
+// (backward ones x reverse_cost_factor) plus turn_cost_m_per_rad per radian turned; the
+// planners see the cheaper way, the validator says whether either is clear. Costs are not
+// symmetric, nor, forward only, is validity (a box sweeps other cells turning at p1 than at
+// p2), so the state space says so and RRT* checks each direction.
 //
 // The path-length objective is this cost; its heuristic, the SE(2) distance with the yaw
 // weighted by turn_cost_m_per_rad (|dp| + k |dyaw|), never exceeds it (the turns of any path
@@ -42,6 +44,8 @@ struct SamplingRequest {
   double margin_m = 0.02;              // body to obstacle edge (the lattice's margin_m)
   double turn_margin_m = 0.01;         // the same while turning in place (the lattice's turn_margin_m)
   double turn_cost_m_per_rad = 0.3;    // metres charged per radian turned (the lattice's)
+  double reverse_cost_factor = 0.0;    // a backward metre costs this many forward ones (>= 1);
+                                       // 0: forward only (the lattice's)
   int occupied_threshold = 65;         // occupancy >= this: obstacle
   bool simplify = true;
   std::array<double, 3> start{};       // x, y (m from the grid's corner), yaw (rad)
@@ -49,14 +53,17 @@ struct SamplingRequest {
 };
 
 struct SampledPath {
-  std::vector<std::array<double, 3>> poses;  // start ... goal, inner yaws along the next segment
+  std::vector<std::array<double, 3>> poses;  // start ... goal, each inner yaw the heading held
+                                             // on the segment into it
+  std::vector<bool> reversed;  // per pose: the segment into it driven backward
   bool solved = false;       // an exact solution, valid as the follower drives it
   std::string reason;        // why not, when not solved
   double solve_s = 0.0;      // wall time of the planner's solve
   double simplify_s = 0.0;   // wall time of the simplification
   double length_m = 0.0;     // driven (x-y)
   double turned_rad = 0.0;   // turned in place, the start's and the goal's turns included
-  double cost_m = 0.0;       // length_m + turn_cost_m_per_rad * turned_rad
+  double reversed_m = 0.0;   // of length_m, driven backward
+  double cost_m = 0.0;       // driven (backward x reverse_cost_factor) + turn_cost_m_per_rad x turned
 };
 
 // The planners' names, in the order above.

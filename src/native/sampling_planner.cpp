@@ -41,6 +41,7 @@ namespace turtlebot_recon::planning {
 namespace {
 
 using Pose = std::array<double, 3>;
+enum class Drive { kBlocked, kForward, kBackward };
 
 double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
 
@@ -57,6 +58,7 @@ class TurnDriveModel {
                  const Footprint& fp, const SamplingRequest& rq)
       : occ_(occupancy), rows_(rows), cols_(cols), res_(res), fp_(fp), margin_(rq.margin_m),
         turn_margin_(rq.turn_margin_m), k_(rq.turn_cost_m_per_rad),
+        reverse_(rq.reverse_cost_factor),
         threshold_(rq.occupied_threshold),
         field_(occupancy, rows, cols, res, 0.0, 0.0, rq.occupied_threshold),
         reach_(control::outline_body(fp, res).radius_m) {
@@ -119,25 +121,45 @@ class TurnDriveModel {
     return true;
   }
 
-  bool motion_clear(const Pose& a, const Pose& b) const {
-    const double d = std::hypot(b[0] - a[0], b[1] - a[1]);
-    if (d < 1e-9) return turn_clear(a[0], a[1], a[2], b[2]);
+  // The heading held driving a -> b: the segment's direction forward, its opposite backward.
+  static double held(const Pose& a, const Pose& b, bool backward) {
     const double dir = std::atan2(b[1] - a[1], b[0] - a[0]);
-    return turn_clear(a[0], a[1], a[2], dir) && drive_clear(a[0], a[1], b[0], b[1], dir) &&
-           turn_clear(b[0], b[1], dir, b[2]);
+    return backward ? dir + kPi : dir;
   }
 
+  // Turn at a to the held heading, drive to b, turn to b's yaw; clear all the way.
+  bool motion_clear(const Pose& a, const Pose& b, bool backward) const {
+    if (std::hypot(b[0] - a[0], b[1] - a[1]) < 1e-9) return turn_clear(a[0], a[1], a[2], b[2]);
+    const double h = held(a, b, backward);
+    return turn_clear(a[0], a[1], a[2], h) && drive_clear(a[0], a[1], b[0], b[1], h) &&
+           turn_clear(b[0], b[1], h, b[2]);
+  }
+  // Forward where that is clear, else backward where the robot may back (reverse_cost_factor > 0).
+  Drive clear_drive(const Pose& a, const Pose& b) const {
+    if (motion_clear(a, b, false)) return Drive::kForward;
+    if (reverse_ > 0 && motion_clear(a, b, true)) return Drive::kBackward;
+    return Drive::kBlocked;
+  }
+  // A motion backward a -> b sweeps what one forward b -> a does: either is clear or neither.
+  bool symmetric() const { return reverse_ > 0; }
+
   // {metres driven, radians turned}
-  static std::pair<double, double> motion(const Pose& a, const Pose& b) {
+  static std::pair<double, double> motion(const Pose& a, const Pose& b, bool backward) {
     const double d = std::hypot(b[0] - a[0], b[1] - a[1]);
     if (d < 1e-9) return {0.0, std::fabs(wrap(b[2] - a[2]))};
-    const double dir = std::atan2(b[1] - a[1], b[0] - a[0]);
-    return {d, std::fabs(wrap(dir - a[2])) + std::fabs(wrap(b[2] - dir))};
+    const double h = held(a, b, backward);
+    return {d, std::fabs(wrap(h - a[2])) + std::fabs(wrap(b[2] - h))};
   }
+  double cost(const Pose& a, const Pose& b, bool backward) const {
+    const auto [driven, turned] = motion(a, b, backward);
+    return driven * (backward ? reverse_ : 1.0) + k_ * turned;
+  }
+  // The cost the planners see: the cheaper way (which way is clear is the validator's answer).
   double cost(const Pose& a, const Pose& b) const {
-    const auto [driven, turned] = motion(a, b);
-    return driven + k_ * turned;
+    const double forward = cost(a, b, false);
+    return reverse_ > 0 ? std::min(forward, cost(a, b, true)) : forward;
   }
+  double reverse_factor() const { return reverse_; }
   double turn_cost() const { return k_; }
 
  private:
@@ -151,7 +173,7 @@ class TurnDriveModel {
   int rows_, cols_;
   double res_;
   Footprint fp_;
-  double margin_, turn_margin_, k_;
+  double margin_, turn_margin_, k_, reverse_;
   int threshold_;
   control::DistanceField field_;
   double reach_;  // the body's farthest point from base_footprint
@@ -230,8 +252,9 @@ class ForwardSe2Space : public ob::SE2StateSpace {
 };
 
 // Directed trees ask for the motion s1 -> s2. An undirected roadmap (PRM*) may drive an edge
-// either way: there an edge must be clear both ways, but for the start's edges (driven away
-// from it) and a goal's (driven into it), which only one way need be.
+// either way: a robot that may back can (a backward motion sweeps what the forward one the
+// other way does); one that may not needs an edge clear both ways, but for the start's edges
+// (driven away from it) and a goal's (driven into it), which only one way need be.
 class TurnDriveValidator : public ob::MotionValidator {
  public:
   TurnDriveValidator(const ob::SpaceInformationPtr& si, const TurnDriveModel& model,
@@ -240,11 +263,12 @@ class TurnDriveValidator : public ob::MotionValidator {
         goals_(goals) {}
   bool checkMotion(const ob::State* s1, const ob::State* s2) const override {
     const Pose a = pose_of(s1), b = pose_of(s2);
+    auto clear = [this](const Pose& p, const Pose& q) { return model_.clear_drive(p, q) != Drive::kBlocked; };
     bool ok;
-    if (!undirected_) ok = model_.motion_clear(a, b);
-    else if (a == start_ || is_goal(b)) ok = model_.motion_clear(a, b);
-    else if (b == start_ || is_goal(a)) ok = model_.motion_clear(b, a);
-    else ok = model_.motion_clear(a, b) && model_.motion_clear(b, a);
+    if (!undirected_ || model_.symmetric()) ok = clear(a, b);
+    else if (a == start_ || is_goal(b)) ok = clear(a, b);
+    else if (b == start_ || is_goal(a)) ok = clear(b, a);
+    else ok = clear(a, b) && clear(b, a);
     ok ? ++valid_ : ++invalid_;
     return ok;
   }
@@ -322,6 +346,50 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The path as a follower drives it: straight segments, forward where that is clear, else
+// backward; each inner vertex's yaw the heading held on the segment into it, so that the
+// turn there goes straight from one heading to the next. Fills `out`'s path and figures;
+// false when such a turn (or anything else) is not clear.
+bool follow(const TurnDriveModel& model, const og::PathGeometric& path, SampledPath& out) {
+  out.length_m = out.turned_rad = out.reversed_m = out.cost_m = 0.0;
+  std::vector<Pose> poses;
+  for (std::size_t i = 0; i < path.getStateCount(); ++i) {
+    const Pose p = pose_of(path.getState(i));
+    if (!poses.empty() && std::hypot(p[0] - poses.back()[0], p[1] - poses.back()[1]) < 1e-9 &&
+        i + 1 < path.getStateCount())
+      continue;  // a turn in place between two drives: the next drive's turn does it
+    poses.push_back(p);
+  }
+  std::vector<bool> backward(poses.size(), false);
+  for (std::size_t i = 1; i < poses.size(); ++i) {
+    // an inner vertex is reached at the heading held on the way (the next segment turns)
+    Pose end = poses[i];
+    Drive drive = Drive::kBlocked;
+    if (i + 1 == poses.size()) {
+      drive = model.clear_drive(poses[i - 1], end);
+    } else {
+      end[2] = TurnDriveModel::held(poses[i - 1], poses[i], false);
+      if (model.motion_clear(poses[i - 1], end, false)) {
+        drive = Drive::kForward;
+      } else if (model.reverse_factor() > 0) {
+        end[2] = TurnDriveModel::held(poses[i - 1], poses[i], true);
+        if (model.motion_clear(poses[i - 1], end, true)) drive = Drive::kBackward;
+      }
+    }
+    if (drive == Drive::kBlocked) return false;
+    backward[i] = drive == Drive::kBackward;
+    const auto [driven, turned] = TurnDriveModel::motion(poses[i - 1], end, backward[i]);
+    out.length_m += driven;
+    out.turned_rad += turned;
+    out.reversed_m += backward[i] ? driven : 0.0;
+    out.cost_m += model.cost(poses[i - 1], end, backward[i]);
+    poses[i] = end;
+  }
+  out.reversed = std::move(backward);
+  out.poses = std::move(poses);
+  return true;
+}
+
 }  // namespace
 
 const std::vector<std::string>& sampling_planners() {
@@ -342,6 +410,8 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
     throw std::invalid_argument(std::string(fn) + ": budget_s must be > 0");
   if (!(std::isfinite(rq.margin_m) && rq.margin_m > 0))
     throw std::invalid_argument(std::string(fn) + ": margin_m must be > 0");
+  if (!(std::isfinite(rq.reverse_cost_factor) && (rq.reverse_cost_factor == 0 || rq.reverse_cost_factor >= 1)))
+    throw std::invalid_argument(std::string(fn) + ": reverse_cost_factor must be 0 (forward only) or >= 1");
   if (!(std::isfinite(rq.turn_margin_m) && rq.turn_margin_m >= 0))
     throw std::invalid_argument(std::string(fn) + ": turn_margin_m must be >= 0");
   if (!(std::isfinite(rq.turn_cost_m_per_rad) && rq.turn_cost_m_per_rad >= 0))
@@ -414,7 +484,8 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
                  status.asString() + ")";
     return out;
   }
-  og::PathGeometric path(*pdef->getSolutionPath()->as<og::PathGeometric>());
+  const og::PathGeometric raw(*pdef->getSolutionPath()->as<og::PathGeometric>());
+  og::PathGeometric path(raw);
 
   if (rq.simplify) {
     t0 = std::chrono::steady_clock::now();
@@ -428,28 +499,12 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
     out.simplify_s = seconds_since(t0);
   }
 
-  // The path the follower drives: each inner vertex's yaw along the next segment.
-  std::vector<Pose> poses;
-  for (std::size_t i = 0; i < path.getStateCount(); ++i) {
-    const Pose p = pose_of(path.getState(i));
-    if (!poses.empty() && std::hypot(p[0] - poses.back()[0], p[1] - poses.back()[1]) < 1e-9 &&
-        i + 1 < path.getStateCount())
-      continue;  // a turn in place between two drives: the next drive's turn does it
-    poses.push_back(p);
+  // The path the follower drives, from the simplified path or, where that one's turns at its
+  // vertices straight from one heading to the next are not clear, the planner's own.
+  if (!follow(model, path, out) && !(rq.simplify && follow(model, raw, out))) {
+    out.reason = "the path's turns at its vertices, as the follower drives them, are not clear";
+    return out;
   }
-  for (std::size_t i = 1; i + 1 < poses.size(); ++i)
-    poses[i][2] = std::atan2(poses[i + 1][1] - poses[i][1], poses[i + 1][0] - poses[i][0]);
-  for (std::size_t i = 1; i < poses.size(); ++i) {
-    if (!model.motion_clear(poses[i - 1], poses[i])) {
-      out.reason = "the path's turns at its vertices, as the follower drives them, are not clear";
-      return out;
-    }
-    const auto [driven, turned] = TurnDriveModel::motion(poses[i - 1], poses[i]);
-    out.length_m += driven;
-    out.turned_rad += turned;
-  }
-  out.cost_m = out.length_m + model.turn_cost() * out.turned_rad;
-  out.poses = std::move(poses);
   out.solved = true;
   return out;
 }
@@ -467,13 +522,14 @@ py::dict py_plan_sampling(const I8Grid& occupancy, double resolution, std::array
                           double footprint_length_m, double footprint_width_m,
                           double footprint_offset_x_m, double radius_m, double margin_m,
                           double turn_margin_m, double turn_cost_m_per_rad,
-                          int occupied_threshold, bool simplify) {
+                          double reverse_cost_factor, int occupied_threshold, bool simplify) {
   const Shape s = grid_shape(occupancy, "plan_sampling", "occupancy");
   tp::SamplingRequest rq;
   rq.planner = planner;
   rq.budget_s = budget_s;
   rq.margin_m = margin_m;
   rq.turn_margin_m = turn_margin_m;
+  rq.reverse_cost_factor = reverse_cost_factor;
   rq.turn_cost_m_per_rad = turn_cost_m_per_rad;
   rq.occupied_threshold = occupied_threshold;
   rq.simplify = simplify;
@@ -499,6 +555,10 @@ py::dict py_plan_sampling(const I8Grid& occupancy, double resolution, std::array
   out["length_m"] = path.length_m;
   out["turned_rad"] = path.turned_rad;
   out["cost_m"] = path.cost_m;
+  out["reversed_m"] = path.reversed_m;
+  py::array_t<bool> reversed(static_cast<py::ssize_t>(path.reversed.size()));
+  for (size_t i = 0; i < path.reversed.size(); ++i) reversed.mutable_data()[i] = path.reversed[i];
+  out["reversed"] = reversed;
   return out;
 }
 
@@ -511,11 +571,12 @@ void register_sampling(py::module_& m) {
         py::arg("start"), py::arg("goal_xy"), py::arg("goal_yaws"), py::arg("planner"),
         py::arg("budget_s"), py::arg("footprint_length_m"), py::arg("footprint_width_m"),
         py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("margin_m"),
-        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("occupied_threshold"), py::arg("simplify") = true,
+        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("reverse_cost_factor"), py::arg("occupied_threshold"), py::arg("simplify") = true,
         "An OMPL plan start -> goal for the footprint (include/turtlebot_recon/sampling_planner.hpp):\n"
         "start (x, y, yaw) and goal_xy in metres from the grid's corner, goal_yaws the headings the\n"
         "goal may be reached at (those where the footprint fits are goal states). A dict: poses\n"
-        "(n, 3) start ... goal with each inner yaw along the next segment, solved (an exact,\n"
-        "followable path), reason (why not), solve_s, simplify_s, length_m, turned_rad, cost_m.\n"
+        "(n, 3) start ... goal with each inner yaw the heading held on the segment into it,\n"
+        "reversed (n,) whether that segment is driven backward, solved (an exact, followable\n"
+        "path), reason (why not), solve_s, simplify_s, length_m, turned_rad, reversed_m, cost_m.\n"
         "ValueError for an unknown planner or a bad argument.");
 }

@@ -36,15 +36,15 @@ def l_corridor():
     return occ
 
 
-def followed_poses(poses, step_m=0.01):
-    """The poses the follower passes: each segment driven at its direction, with the turns at
-    the vertices (from the previous direction, or the start's yaw, to the next; at the goal to
-    its yaw) every 2 degrees."""
+def followed_poses(poses, reversed_, step_m=0.01):
+    """The poses the follower passes: each segment driven at its direction (facing back where
+    it is driven backward), with the turns at the vertices (from the previous heading, or the
+    start's yaw, to the next; at the goal to its yaw) every 2 degrees."""
     out = []
     yaw = poses[0, 2]
-    for a, b in zip(poses[:-1], poses[1:]):
+    for a, b, back in zip(poses[:-1], poses[1:], reversed_[1:]):
         d = math.hypot(b[0] - a[0], b[1] - a[1])
-        heading = math.atan2(b[1] - a[1], b[0] - a[0]) if d > 1e-9 else b[2]
+        heading = math.atan2(b[1] - a[1], b[0] - a[0]) + (math.pi if back else 0.0) if d > 1e-9 else b[2]
         turn = math.remainder(heading - yaw, 2 * math.pi)
         for t in np.linspace(0.0, 1.0, max(2, int(abs(turn) / math.radians(2)) + 1)):
             out.append((a[0], a[1], yaw + t * turn))
@@ -62,7 +62,7 @@ def check_path(occ, robot, path, start, goal):
     assert np.allclose(path.poses[-1, :2], goal[:2])
     settings = LatticeSettings()
     # turns only where the body keeps turn_margin_m off obstacles, drives margin_m
-    clear = footprint_clear(occ, RES, ORIGIN, robot, followed_poses(path.poses),
+    clear = footprint_clear(occ, RES, ORIGIN, robot, followed_poses(path.poses, path.reversed),
                             LatticeSettings(margin_m=settings.turn_margin_m))
     assert clear.all(), "the follower's drive along the path meets an obstacle"
     length = np.hypot(*np.diff(path.poses[:, :2], axis=0).T).sum()
@@ -101,18 +101,24 @@ def test_a_goal_yaw_is_kept_and_the_goal_reached_driving_forward():
     assert path.length_m == pytest.approx(2.5, abs=0.05)
 
 
-def test_the_box_needs_room_to_turn_the_disc_does_not():
+def test_the_box_backs_into_a_dead_end_it_cannot_turn_in():
     """A 0.45 m corridor with a closed end: the waffle_pi (0.306 m wide box, 0.257 m turning
-    disc) drives in but cannot turn anywhere in it, so a goal facing back out of it is
-    unreachable; the burger (0.105 m disc) turns anywhere."""
+    disc) cannot turn anywhere in it, so it reaches a goal facing back out of it only by
+    backing in (the lattice's backward moves, reverse_speed_mps); forward only, there is no
+    way. The burger (0.105 m disc) turns anywhere and drives in forward."""
     occ = np.full((40, 80), 100, np.int8)
     occ[5:35, 5:30] = 0                    # a 1.5 x 1.25 m room
     occ[16:25, 30:75] = 0                  # a 0.45 m corridor east from it, closed at its end
     start, goal = (0.75, 1.0, 0.0), (3.2, 1.0, math.pi)
     with pytest.raises(PlanningError):
-        plan_sampling(occ, RES, ORIGIN, WAFFLE, start, goal, "rrtconnect", 0.3)
+        plan_sampling(occ, RES, ORIGIN, WAFFLE, start, goal, "rrtconnect", 0.3,
+                      settings=LatticeSettings(reverse_speed_mps=0.0))
+    path = plan_sampling(occ, RES, ORIGIN, WAFFLE, start, goal, "rrtconnect", BUDGET_S)
+    check_path(occ, WAFFLE, path, start, goal)
+    assert path.reversed.any() and path.reversed_m >= 3.2 - 1.5
     path = plan_sampling(occ, RES, ORIGIN, BURGER, start, goal, "rrtconnect", BUDGET_S)
     check_path(occ, BURGER, path, start, goal)
+    assert not path.reversed.any() and path.reversed_m == 0.0
 
 
 @pytest.mark.parametrize("start, goal, what", [

@@ -1,11 +1,11 @@
 """OMPL's sampling planners for the oriented footprint: facade over ``_native.plan_sampling``.
 
 RRT-Connect, RRT*, Informed RRT*, PRM* and BIT* plan in SE(2) with the lattice's motion model
-and costs (include/turtlebot_recon/sampling_planner.hpp): turn in place, drive forward, turn
-in place; the footprint ``margin_m`` off every obstacle cell's square, the centre on known
+and costs (include/turtlebot_recon/sampling_planner.hpp): turn in place, drive straight
+(backward where the lattice would, dearer), turn in place; the footprint ``margin_m`` off every obstacle cell's square, the centre on known
 free cells; metres driven plus the turning cost. OMPL's simplifier shortens the path, and the
-path returned is the one the navigator's follower drives: straight segments, a turn in place
-at each vertex from one segment's direction to the next. Any-angle where the lattice keeps to
+path returned is the one a follower drives: straight segments, forward where that is clear,
+a turn in place at each vertex from one segment's heading to the next. Any-angle where the lattice keeps to
 16 headings, but random: OMPL draws from its own process-wide generator, so two runs differ.
 
 Poses are (x, y, yaw) in metres and radians in the grid's frame (``origin``: the (x, y) of
@@ -29,10 +29,13 @@ OMPL_PLANNERS = tuple(_native.sampling_planners())   # rrtconnect, rrtstar, info
 
 @dataclass(frozen=True)
 class SampledPath:
-    poses: np.ndarray      # float (n, 3): start ... goal; each inner yaw along the next segment
+    poses: np.ndarray      # float (n, 3): start ... goal; each inner yaw the heading held on
+                           # the segment into it (facing back where that one is backward)
+    reversed: np.ndarray   # bool (n,): the segment into the pose is driven backward
     length_m: float        # driven
+    reversed_m: float      # of length_m, driven backward
     turned_rad: float      # turned in place (the start's and the goal's turns included)
-    cost_m: float          # length_m + the lattice's turn cost per radian x turned_rad
+    cost_m: float          # the lattice's cost: metres driven (backward ones dearer) + turning
     solve_s: float         # wall time of OMPL's solve
     simplify_s: float      # wall time of the simplification
 
@@ -57,12 +60,14 @@ def plan_sampling(occupancy: np.ndarray, resolution: float, origin: Sequence[flo
         occupancy, resolution, (float(start[0]) - ox, float(start[1]) - oy, float(start[2])),
         (float(goal[0]) - ox, float(goal[1]) - oy), yaws, planner, budget_s,
         **footprint_args(robot), margin_m=settings.margin_m, turn_margin_m=settings.turn_margin_m,
-        turn_cost_m_per_rad=settings.turn_cost_m_per_rad, occupied_threshold=OCCUPIED_THRESH,
+        turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
+        reverse_cost_factor=settings.reverse_cost_factor, occupied_threshold=OCCUPIED_THRESH,
         simplify=simplify)
     if not out["solved"]:
         raise PlanningError(f"plan_sampling ({planner}): {out['reason']}")
     poses = out["poses"]
     poses[:, 0] += ox
     poses[:, 1] += oy
-    return SampledPath(poses=poses, length_m=out["length_m"], turned_rad=out["turned_rad"],
+    return SampledPath(poses=poses, reversed=out["reversed"], length_m=out["length_m"],
+                       reversed_m=out["reversed_m"], turned_rad=out["turned_rad"],
                        cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
