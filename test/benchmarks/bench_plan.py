@@ -162,9 +162,10 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
 # ---------------------------------------------------------------------- the collision check
 def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
     """(m, 3) poses of the robot driving ``path`` turn-drive-turn, as the navigator's follower
-    does: from each pose it turns in place to the segment's direction (or its opposite, where
-    the pose faces back along it: the lattice's backward moves), drives straight, and turns to
-    the next pose's yaw. (n, 3) poses are taken as given; (n, 2) points (the 2-D planners, which
+    does: each pose's yaw is the heading held on the segment into it (plan_sampling's and the
+    lattice's convention), so from a pose the robot turns in place to the next segment's
+    direction, or to its opposite where the next pose faces back along it (a backward drive),
+    drives straight, and turns to the next pose's yaw. (n, 2) points (the 2-D planners, which
     know no heading) face along each segment, from the first. Poses every <= res / 2 of travel
     and of the arc of the body's farthest point (radius_m) when turning."""
     path = np.asarray(path, dtype=float)
@@ -173,13 +174,13 @@ def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
         path = path[np.r_[True, np.hypot(step[:, 0], step[:, 1]) > 1e-9]]
         step = np.diff(path, axis=0)
         heading = np.arctan2(step[:, 1], step[:, 0])
-        path = np.column_stack([path, np.r_[heading, heading[-1:]] if len(heading) else np.zeros(len(path))])
+        path = np.column_stack([path, np.r_[heading[:1], heading] if len(heading) else np.zeros(len(path))])
     keys = [path[0]]        # poses where a pure turn or a pure drive ends; yaw unwrapped
     for a, b in zip(path[:-1], path[1:]):
         d, yaw = b[:2] - a[:2], keys[-1][2]
         if np.hypot(*d) > 1e-9:
             h = math.atan2(d[1], d[0])
-            if abs(geometry.wrap_angle(yaw - h - math.pi)) < 1e-6:      # backing along it
+            if abs(geometry.wrap_angle(b[2] - h - math.pi)) < 1e-6:     # driven backward
                 h += math.pi
             yaw += geometry.wrap_angle(h - yaw)
             keys += [np.array([a[0], a[1], yaw]), np.array([b[0], b[1], yaw])]
