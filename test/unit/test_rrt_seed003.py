@@ -9,7 +9,9 @@ cell (row, col) spans x in [col, col + 1] x 0.05, y in [row, row + 1] x 0.05. Th
 ceil(6.12) + 3 = 10 cells, the seed's own.
 """
 import math
+import re
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -81,6 +83,16 @@ def raw(occ, start, goal, seed=0, **overrides):
 def test_settings_default_to_the_seeds_values():
     assert (SEED.goal_select_fraction, SEED.step_cells, SEED.max_steps, SEED.max_nodes) == (0.3, 4.0, 25000, 10000)
     assert SEED.shortcut
+
+
+def test_cpp_defaults_are_the_python_settings():
+    # the header's struct keeps the seed's values too (a C++ caller's defaults): the same numbers
+    text = (Path(__file__).resolve().parents[2] / "include" / "turtlebot_recon" / "rrt_seed003.hpp").read_text()
+    body = re.search(r"struct RrtSeed003Params \{(.*?)\n\};", text, re.S).group(1)
+    cpp = {m.group(1): float(m.group(2)) for m in re.finditer(r"^\s*(?:double|int)\s+(\w+)\s*=\s*([-+0-9.e]+);", body, re.M)}
+    assert cpp == {"goal_fraction": SEED.goal_select_fraction, "step_cells": SEED.step_cells,
+                   "hitbox_width_cells": 7 + SEED.clearance_cells, "hitbox_length_cells": 7 + SEED.clearance_cells,
+                   "max_steps": SEED.max_steps, "max_nodes": SEED.max_nodes, "occupied_threshold": OCCUPIED_THRESH}
 
 
 def test_hitbox_is_the_footprint_in_cells_plus_the_seeds_clearance():
