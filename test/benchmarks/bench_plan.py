@@ -27,7 +27,8 @@ includes what it builds from the grid: distance fields, costmaps):
   little from run to run.
 
 Figures per planner, over all pairs: success rate (a path returned AND the footprint clear along
-it: the path driven turn-drive-turn as the navigator's follower drives it, ``densify``, poses
+it: the path driven turn-drive-turn as the navigator's follower drives it (backward where the
+planner says so), ``densify``, poses
 every <= resolution / 2 of travel and of the body's farthest point's arc when turning in place,
 ``_native.footprint_clearance`` > 0, i.e. margin 0; a 2-D path faces along each segment and
 turns in place at its vertices), found rate (a path returned), the failures by reason
@@ -160,14 +161,14 @@ def sample_pairs(occ: np.ndarray, res: float, origin, robot, n: int, seed: int, 
 
 
 # ---------------------------------------------------------------------- the collision check
-def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
+def densify(path: np.ndarray, res: float, robot, backward=None) -> np.ndarray:
     """(m, 3) poses of the robot driving ``path`` turn-drive-turn, as the navigator's follower
-    does: each pose's yaw is the heading held on the segment into it (plan_sampling's and the
-    lattice's convention), so from a pose the robot turns in place to the next segment's
-    direction, or to its opposite where the next pose faces back along it (a backward drive),
-    drives straight, and turns to the next pose's yaw. (n, 2) points (the 2-D planners, which
-    know no heading) face along each segment, from the first. Poses every <= res / 2 of travel
-    and of the arc of the body's farthest point (radius_m) when turning."""
+    does: from each pose it turns in place to the next segment's direction (the opposite one
+    where ``backward[i]``, bool (n,): the segment into pose i is driven backward, as the
+    lattice's and plan_sampling's ``reversed``), drives straight, and turns to the next pose's
+    yaw. (n, 2) points (the 2-D planners, which know no heading) face along each segment, from
+    the first, forward. Poses every <= res / 2 of travel and of the arc of the body's farthest
+    point (radius_m) when turning."""
     path = np.asarray(path, dtype=float)
     if path.shape[1] == 2:
         step = np.diff(path, axis=0)
@@ -175,13 +176,12 @@ def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
         step = np.diff(path, axis=0)
         heading = np.arctan2(step[:, 1], step[:, 0])
         path = np.column_stack([path, np.r_[heading[:1], heading] if len(heading) else np.zeros(len(path))])
+    backward = np.zeros(len(path), bool) if backward is None else np.asarray(backward, bool)
     keys = [path[0]]        # poses where a pure turn or a pure drive ends; yaw unwrapped
-    for a, b in zip(path[:-1], path[1:]):
+    for a, b, back in zip(path[:-1], path[1:], backward[1:]):
         d, yaw = b[:2] - a[:2], keys[-1][2]
         if np.hypot(*d) > 1e-9:
-            h = math.atan2(d[1], d[0])
-            if abs(geometry.wrap_angle(b[2] - h - math.pi)) < 1e-6:     # driven backward
-                h += math.pi
+            h = math.atan2(d[1], d[0]) + (math.pi if back else 0.0)
             yaw += geometry.wrap_angle(h - yaw)
             keys += [np.array([a[0], a[1], yaw]), np.array([b[0], b[1], yaw])]
         keys += [np.array([b[0], b[1], yaw + geometry.wrap_angle(b[2] - yaw)])]
@@ -196,10 +196,10 @@ def densify(path: np.ndarray, res: float, robot) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def check_path(occ: np.ndarray, res: float, origin, robot, path: np.ndarray) -> tuple:
+def check_path(occ: np.ndarray, res: float, origin, robot, path: np.ndarray, backward=None) -> tuple:
     """(clear, min_clearance_m): whether the footprint along ``path`` (``densify``) never meets
     an obstacle cell's square (or leaves the grid), and its least distance to one (<= the cap)."""
-    poses = densify(path, res, robot)
+    poses = densify(path, res, robot, backward)
     if len(poses) == 0:
         return False, 0.0
     d = _native.footprint_clearance(occ, res, (float(origin[0]), float(origin[1])), poses,
@@ -210,22 +210,23 @@ def check_path(occ: np.ndarray, res: float, origin, robot, path: np.ndarray) -> 
 
 # ---------------------------------------------------------------------- the planners
 def call_planner(name: str, budget_s: float, occ, res, origin, robot, pair: Pair):
-    """(path, length_m): path (n, 2) points or (n, 3) poses (m, rad); PlanningError when none."""
+    """(path, length_m, backward): path (n, 2) points or (n, 3) poses (m, rad), backward bool (n,)
+    (the segment into each pose driven backward) or None (all forward); PlanningError when none."""
     if name == "lattice":
         p = plan_lattice(occ, res, origin, robot, pair.start, pair.goal[:2], navigator_lattice())
-        return p.poses, p.length_m
+        return p.poses, p.length_m, p.reversed
     if name == "astar_shortcut":
         costmap = footprint_costmap(occ, res, robot, navigator_lattice())
         cells = plan(costmap, geometry.xy_to_cell(pair.start, res, origin), geometry.xy_to_cell(pair.goal, res, origin),
                      PlannerSettings(visit_sensitivity=0.0), resolution=res)
         pts = geometry.cells_to_points(cells, res, origin)
-        return pts, float(np.hypot(*np.diff(pts, axis=0).T).sum())
+        return pts, float(np.hypot(*np.diff(pts, axis=0).T).sum()), None
     if name == "rrt_seed003":
         p = plan_rrt_seed003(occ, res, origin, robot, pair.start[:2], pair.goal[:2], seed=pair.index)
-        return p.points, p.length_m
+        return p.points, p.length_m, None
     p = plan_sampling(occ, res, origin, robot, pair.start, pair.goal[:2], planner=name, budget_s=budget_s,
                       settings=navigator_lattice())
-    return p.poses, p.length_m
+    return p.poses, p.length_m, p.reversed
 
 
 def planner_keys(planners: list) -> list:
@@ -246,9 +247,9 @@ def run_pair(world: str, real: bool, robot, occ, res, origin, pair: Pair, keys: 
         row = dict(world=world, robot=robot.name, pair=pair.index, planner=key, budget_s=budget)
         t0 = time.perf_counter()
         try:
-            path, length = call_planner(planner, budget, occ, res, origin, robot, pair)
+            path, length, backward = call_planner(planner, budget, occ, res, origin, robot, pair)
             row["time_ms"] = 1e3 * (time.perf_counter() - t0)
-            clear, least = check_path(occ, res, origin, robot, path)
+            clear, least = check_path(occ, res, origin, robot, path, backward)
             row.update(found=True, clear=clear, success=clear, length_ratio=length / pair.reference_m,
                        clearance_m=least, vertices=len(path))
             if not clear:

@@ -92,10 +92,14 @@ def test_collision_check_sweeps_turns_in_place():
     assert not bench_plan.check_path(occ, RES, ORIGIN, WAFFLE, corner)[0]
 
 
-def test_densify_drives_backward_where_the_pose_faces_back():
+def test_densify_drives_backward_where_the_planner_says():
     # the lattice's backward move: yaw 0 while x decreases; no turn to face the other way
-    poses = bench_plan.densify(np.array([[1.0, 1.0, 0.0], [0.9, 1.0, 0.0]]), RES, WAFFLE)
+    back = np.array([[1.0, 1.0, 0.0], [0.9, 1.0, 0.0]])
+    poses = bench_plan.densify(back, RES, WAFFLE, backward=[False, True])
     assert np.all(poses[:, 2] == 0.0) and len(poses) == 5               # 0.1 m in 0.025 m steps
+    # unflagged, the same poses are driven forward: a half turn, the drive, a half turn back
+    poses = bench_plan.densify(back, RES, WAFFLE)
+    assert np.abs(poses[:, 2]).max() >= math.pi - 1e-9 and math.cos(poses[-1, 2]) == pytest.approx(1.0)
     # a pose that faces across its segment turns to it, drives, and turns to the next pose's yaw
     poses = bench_plan.densify(np.array([[1.0, 1.0, 0.0], [1.0, 1.1, 0.0]]), RES, WAFFLE)
     assert poses[:, 2].max() == pytest.approx(math.pi / 2) and poses[-1, 2] == pytest.approx(0.0)
