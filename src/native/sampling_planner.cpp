@@ -626,7 +626,7 @@ void register_sampling(py::module_& m) {
         py::arg("start"), py::arg("goal_xy"), py::arg("goal_yaws"), py::arg("planner"),
         py::arg("budget_s"), py::arg("footprint_length_m"), py::arg("footprint_width_m"),
         py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("margin_m"),
-        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("reverse_cost_factor"), py::arg("occupied_threshold"), py::arg("simplify") = true,
+        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("reverse_cost_factor"), py::arg("occupied_threshold"), py::arg("simplify"),
         "An OMPL plan start -> goal for the footprint (include/turtlebot_recon/sampling_planner.hpp):\n"
         "start (x, y, yaw) and goal_xy in metres from the grid's corner, goal_yaws the headings the\n"
         "goal may be reached at (those where the footprint fits are goal states). A dict: poses\n"
