@@ -60,6 +60,7 @@ struct SampledPath {
   std::string reason;        // why not, when not solved
   double solve_s = 0.0;      // wall time of the planner's solve
   double simplify_s = 0.0;   // wall time of the simplification
+  int vertices = 0;          // states in the planner's graph or trees when it stopped
   double length_m = 0.0;     // driven (x-y)
   double turned_rad = 0.0;   // turned in place, the start's and the goal's turns included
   double reversed_m = 0.0;   // of length_m, driven backward

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/ProblemDefinition.h>
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/goals/GoalStates.h>
@@ -61,7 +62,7 @@ class TurnDriveModel {
         reverse_(rq.reverse_cost_factor),
         threshold_(rq.occupied_threshold),
         field_(occupancy, rows, cols, res, 0.0, 0.0, rq.occupied_threshold),
-        reach_(control::outline_body(fp, res).radius_m) {
+        body_(control::outline_body(fp, 0.5 * res)), reach_(body_.radius_m) {
     for (int r = 0; r < rows; ++r)
       for (int c = 0; c < cols; ++c)
         if (known_free(r, c) && field_.cell(r, c) >= fp.radius_m + turn_margin_)
@@ -100,8 +101,13 @@ class TurnDriveModel {
     if (!known_free(static_cast<int>(std::floor(y / res_)), static_cast<int>(std::floor(x / res_))))
       return false;
     // Far from obstacles the field answers: its values may run up to about half a cell long
-    // (centre-to-centre distances, interpolated), so one cell of slack.
+    // (centre-to-centre distances, interpolated), so one cell of slack at base_footprint; along
+    // a box's outline (points half a cell apart: a corner poking between two comes up to a
+    // quarter cell nearer) half a cell and a quarter.
     if (field_.at(x, y) - reach_ >= margin + res_) return true;
+    if (!fp_.round() &&
+        control::body_clearance(field_, body_, x, y, yaw, margin + res_) >= margin + 0.75 * res_)
+      return true;
     auto is_obstacle = [this](int rr, int cc) {
       if (rr < 0 || rr >= rows_ || cc < 0 || cc >= cols_) return true;
       return occ_[static_cast<size_t>(rr) * cols_ + cc] >= threshold_;
@@ -184,6 +190,7 @@ class TurnDriveModel {
   double margin_, turn_margin_, k_, reverse_;
   int threshold_;
   control::DistanceField field_;
+  control::BodyOutline body_;  // the box's outline every half cell, for the field's answer
   double reach_;  // the body's farthest point from base_footprint
   std::vector<std::array<double, 2>> turn_spots_;
   std::vector<Pose> line_spots_;
@@ -534,6 +541,11 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
   auto t0 = std::chrono::steady_clock::now();
   const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(rq.budget_s));
   out.solve_s = seconds_since(t0);
+  {
+    ob::PlannerData data(si);
+    planner->getPlannerData(data);
+    out.vertices = static_cast<int>(data.numVertices());
+  }
   if (status != ob::PlannerStatus::EXACT_SOLUTION || !pdef->hasExactSolution()) {
     out.reason = std::string("no path within ") + std::to_string(rq.budget_s) + " s (" +
                  status.asString() + ")";
@@ -611,6 +623,7 @@ py::dict py_plan_sampling(const I8Grid& occupancy, double resolution, std::array
   out["turned_rad"] = path.turned_rad;
   out["cost_m"] = path.cost_m;
   out["reversed_m"] = path.reversed_m;
+  out["vertices"] = path.vertices;
   py::array_t<bool> reversed(static_cast<py::ssize_t>(path.reversed.size()));
   for (size_t i = 0; i < path.reversed.size(); ++i) reversed.mutable_data()[i] = path.reversed[i];
   out["reversed"] = reversed;
@@ -632,6 +645,7 @@ void register_sampling(py::module_& m) {
         "goal may be reached at (those where the footprint fits are goal states). A dict: poses\n"
         "(n, 3) start ... goal with each inner yaw the heading held on the segment into it,\n"
         "reversed (n,) whether that segment is driven backward, solved (an exact, followable\n"
-        "path), reason (why not), solve_s, simplify_s, length_m, turned_rad, reversed_m, cost_m.\n"
+        "path), reason (why not), solve_s, simplify_s, length_m, turned_rad, reversed_m, cost_m,\n"
+        "vertices (the planner's graph or trees when it stopped).\n"
         "ValueError for an unknown planner or a bad argument.");
 }
