@@ -25,11 +25,14 @@
 //   radius about base_footprint, plus the margin), below that 252 exp(-k (d - r_in)) out to
 //   inflation_m, d measured to the obstacle's edge.
 // Heuristic: the cost-to-go of the forward moves alone over the 2-D grid of cells where some
-//   heading may fit (graded cost < 253), by a Dijkstra from the goal cell, run lazily: it
-//   settles cells only until the one asked about is settled. Every lattice path projects onto
-//   a path of that grid at no more cost (a backward move onto the opposite heading's forward
-//   one), so the heuristic is admissible and consistent; a cell it never settles cannot reach
-//   the goal, and its states are never opened. Plus the least turning (least_turn_rad).
+//   heading may fit (graded cost < 253), by a search from the goal cell toward the start, run
+//   lazily: it settles cells only until the one asked about is settled (cost_to_go_2d). Every
+//   lattice path projects onto a path of that grid at no more cost (a backward move onto the
+//   opposite heading's forward one), so the heuristic is admissible and consistent; a cell it
+//   never settles cannot reach the goal, and its states are never opened. Plus the least
+//   turning (least_turn_rad).
+// What depends on neither start nor goal (the footprint's regions, the map's distance field and
+// graded costs) is built apart and shared between searches: lattice_grid.hpp.
 #pragma once
 
 #include <algorithm>
@@ -47,44 +50,9 @@
 #include "turtlebot_recon/distance_field.hpp"
 #include "turtlebot_recon/footprint.hpp"
 #include "turtlebot_recon/grid_search.hpp"
+#include "turtlebot_recon/lattice_grid.hpp"
 
 namespace turtlebot_recon::planning {
-
-struct LatticeParams {
-  double resolution_m = 0.05;
-  int headings = 16;                 // K: 4, 8 or 16
-  double margin_m = 0.02;            // clearance of the body to obstacle edges, > 0
-  double turn_margin_m = 0.01;       // clearance of the turning disc (box robots), >= 0
-  double cost_weight = 1.0;          // weight of the graded cost c / 252
-  double inflation_m = 0.35;         // graded band beyond the inscribed radius
-  double cost_scaling_factor = 5.0;  // 1/m, decay of the graded cost
-  double turn_cost_m_per_rad = 0.325;  // cruise speed / turning speed (m/s per rad/s)
-  int occupied_threshold = 65;       // occupancy (0..100) >= this is an obstacle
-  bool unknown_is_obstacle = false;  // unknown cells (and off the grid) are obstacles too
-  double reverse_cost_factor = 0.0;  // backward moves cost this x a forward one; 0: none
-};
-
-// Throws std::invalid_argument ("plan_lattice: ...") naming the first bad parameter.
-inline void validate(const LatticeParams& p) {
-  auto fail = [](const std::string& what) { throw std::invalid_argument("plan_lattice: " + what); };
-  auto finite_at_least = [](double v, double lo) { return std::isfinite(v) && v >= lo; };
-  if (!(std::isfinite(p.resolution_m) && p.resolution_m > 0))
-    fail("resolution must be a positive number of metres");
-  if (p.headings != 4 && p.headings != 8 && p.headings != 16)
-    fail("headings must be 4, 8 or 16, got " + std::to_string(p.headings));
-  if (!(std::isfinite(p.margin_m) && p.margin_m > 0))
-    fail("margin_m must be > 0 (a body touching an obstacle's edge collides), got " +
-         std::to_string(p.margin_m));
-  if (!finite_at_least(p.turn_margin_m, 0)) fail("turn_margin_m must be >= 0");
-  if (!finite_at_least(p.cost_weight, 0)) fail("cost_weight must be >= 0 (the heuristic needs it)");
-  if (!finite_at_least(p.inflation_m, 0)) fail("inflation_m must be >= 0");
-  if (!finite_at_least(p.cost_scaling_factor, 0)) fail("cost_scaling_factor must be >= 0");
-  if (!finite_at_least(p.turn_cost_m_per_rad, 0)) fail("turn_cost_m_per_rad must be >= 0");
-  if (!(p.reverse_cost_factor == 0.0 || (std::isfinite(p.reverse_cost_factor) && p.reverse_cost_factor >= 1.0)))
-    fail("reverse_cost_factor must be 0 (no backward moves) or >= 1");
-  if (p.occupied_threshold < 1 || p.occupied_threshold > 100)
-    fail("occupied_threshold must be in 1..100, got " + std::to_string(p.occupied_threshold));
-}
 
 struct LatticeState {
   int row, col, heading;
@@ -107,40 +75,31 @@ struct LatticePath {
   long long expanded = 0;            // states expanded
 };
 
-// One search over one occupancy grid (one object per call from Python). Like GridSearch it
-// works on padded copies of the grid: a ring of `pad_` cells (unknown: obstacles only if
+// One search over one occupancy grid (one object per call from Python), on the padded grid of
+// its LatticeMap (lattice_grid.hpp): a ring of `pad_` cells (unknown: obstacles only if
 // unknown_is_obstacle) keeps every footprint offset and move in memory, so no loop checks
 // bounds. Grid cell (r, c) is padded cell (r + pad_) * stride_ + c + pad_; state (cell, k) is
 // cell * K + k.
 class LatticeSearch {
  public:
+  // Over the shapes and map of lattice_grid.hpp (shared with other searches, read only).
+  LatticeSearch(std::shared_ptr<const LatticeShapes> shapes, std::shared_ptr<const LatticeMap> map)
+      : shapes_(std::move(shapes)), map_(std::move(map)), rows_(map_->rows), cols_(map_->cols),
+        p_(shapes_->p), fp_(shapes_->fp), headings_(shapes_->headings), K_(shapes_->K),
+        pad_(shapes_->pad), stride_(shapes_->stride), n_cells_(map_->n_cells),
+        pose_(shapes_->pose), move_(shapes_->move), turn_(shapes_->turn), sweep_(shapes_->sweep),
+        step_(shapes_->step), length_m_(shapes_->length_m), entered_(shapes_->entered),
+        per_cost_unit_(shapes_->per_cost_unit), ends_cover_move_(shapes_->ends_cover_move),
+        turn_rad_(shapes_->turn_rad), obstacle_(map_->obstacle), known_(map_->known),
+        cost_(map_->cost), d2_(map_->d2) {
+    if (map_->shapes != shapes_) throw std::logic_error("LatticeSearch: a map built for other shapes");
+    allocate_search();
+  }
+
   // occupancy: ROS int8 values (< 0 unknown, 0..100), row-major (rows, cols), row 0 = lowest y.
   LatticeSearch(const std::int8_t* occupancy, int rows, int cols, const Footprint& footprint,
                 const LatticeParams& params)
-      : rows_(rows), cols_(cols), p_(params), fp_(footprint) {
-    validate(fp_, "plan_lattice");
-    validate(p_);
-    headings_ = lattice_headings(p_.headings);
-    K_ = p_.headings;
-    build_shapes();
-    build_map(occupancy);
-    for (int k = 0; k < K_; ++k) {
-      const LatticeHeading& hd = headings_[k];
-      step_[k] = hd.dr * stride_ + hd.dc;
-      length_m_[k] = std::hypot(hd.dr, hd.dc) * p_.resolution_m;
-      // the cells the centre enters on the move: its Bresenham line, less the start cell
-      bresenham_line(0, 0, hd.dr, hd.dc, [&](int r, int c) {
-        if (r != 0 || c != 0) entered_[k].push_back(r * stride_ + c);
-        return true;
-      });
-      per_cost_unit_[k] = length_m_[k] * p_.cost_weight / (252.0 * entered_[k].size());
-      ends_cover_move_[k] = !fp_.round() && length_m_[k] < fp_.length_m;
-      for (int side = 0; side < 2; ++side) {  // 0: to k + 1 (left), 1: to k - 1 (right)
-        const int to = side == 0 ? (k + 1) % K_ : (k + K_ - 1) % K_;
-        turn_rad_[k][side] = std::fabs(std::remainder(headings_[to].yaw_rad - hd.yaw_rad, 2 * kPi));
-      }
-    }
-  }
+      : LatticeSearch(std::make_shared<const LatticeShapes>(footprint, params, cols), occupancy, rows, cols) {}
 
   const std::vector<LatticeHeading>& headings() const { return headings_; }
 
@@ -169,7 +128,7 @@ class LatticeSearch {
     check_endpoint("goal", goal, goal_heading);
     goal_cell_ = padded(goal);
     goal_heading_ = goal_heading;
-    start_dijkstra();
+    start_reverse_search(padded(start));
     LatticePath path;
     const int s0 = padded(start) * K_ + start_heading;
     if (!std::isfinite(cost_to_go_2d(padded(start)))) return path;  // different components
@@ -358,105 +317,12 @@ class LatticeSearch {
   Cell unpadded(int i) const { return {i / stride_ - pad_, i % stride_ - pad_}; }
 
   // ---------------------------------------------------------------- set-up
-  // The regions of footprint.hpp: the pose and the forward move at each heading, the turn.
-  void build_shapes() {
-    const double res = p_.resolution_m, m = p_.margin_m;
-    const bool round = fp_.round();
-    const double x0 = fp_.offset_x_m - 0.5 * fp_.length_m, x1 = fp_.offset_x_m + 0.5 * fp_.length_m;
-    const double y0 = -0.5 * fp_.width_m, y1 = 0.5 * fp_.width_m;
-    const double rho = round ? fp_.radius_m + m : m;  // a round body is a point padded
-    const double corner = std::max(std::hypot(x0, y1), std::hypot(x1, y1));
-    const double turn_radius = std::max(fp_.radius_m, corner) + (round ? m : p_.turn_margin_m);
+  LatticeSearch(std::shared_ptr<const LatticeShapes> shapes, const std::int8_t* occupancy, int rows, int cols)
+      : LatticeSearch(shapes, std::make_shared<const LatticeMap>(occupancy, rows, cols, shapes)) {}
 
-    // The padding holds the farthest cell of any region (the turn, or the longest move's
-    // farthest corner): bounded here, as the regions' offsets need the stride.
-    const double longest_move = std::sqrt(5.0) * res;
-    const double reach_m =
-        std::max(turn_radius, std::max(std::hypot(x0, y1), std::hypot(x1 + longest_move, y1)) + rho);
-    pad_ = static_cast<int>(std::ceil((reach_m + std::sqrt(0.5) * res) / res)) + 1;
-    stride_ = cols_ + 2 * pad_;
-
-    for (int k = 0; k < K_; ++k) {
-      const LatticeHeading& hd = headings_[k];
-      const double move = std::hypot(hd.dr, hd.dc) * res;
-      pose_[k] = GridShape({{box_polygon(x0, x1, y0, y1), rho}}, hd.yaw_rad, res, stride_);
-      move_[k] = GridShape({{box_polygon(x0, x1 + move, y0, y1), rho}}, hd.yaw_rad, res, stride_);
-    }
-    if (round) {
-      turn_ = pose_[0];  // the disc itself: turning in place sweeps nothing new
-    } else {
-      std::vector<Region> spin{{{{0.0, 0.0}}, turn_radius}};
-      for (const LatticeHeading& hd : headings_) {  // every padded pose, turned to yaw 0's frame
-        const double c = std::cos(hd.yaw_rad), s = std::sin(hd.yaw_rad);
-        std::vector<Vec2> box;
-        for (Vec2 v : box_polygon(x0, x1, y0, y1)) box.push_back({c * v.x - s * v.y, s * v.x + c * v.y});
-        spin.push_back({box, m});
-      }
-      turn_ = GridShape(spin, 0.0, res, stride_);
-      // The box swept from heading k to each neighbour: its poses every <= kSweepStepRad,
-      // padded by margin_m (the union misses only slivers r (1 - cos(step / 2)) < 0.3 mm deep
-      // at the corners' arcs, r <= 0.3 m).
-      for (int k = 0; k < K_; ++k) {
-        for (int side = 0; side < 2; ++side) {
-          const int to = side == 0 ? (k + 1) % K_ : (k + K_ - 1) % K_;
-          const double delta = std::remainder(headings_[to].yaw_rad - headings_[k].yaw_rad, 2 * kPi);
-          const int n = std::max(1, static_cast<int>(std::ceil(std::fabs(delta) / kSweepStepRad)));
-          std::vector<Region> sweep;
-          for (int i = 0; i <= n; ++i) {
-            const double a = delta * i / n, c = std::cos(a), s = std::sin(a);
-            std::vector<Vec2> box;
-            for (Vec2 v : box_polygon(x0, x1, y0, y1)) box.push_back({c * v.x - s * v.y, s * v.x + c * v.y});
-            sweep.push_back({box, m});
-          }
-          sweep_[k][side] = GridShape(sweep, headings_[k].yaw_rad, res, stride_);
-        }
-      }
-    }
-  }
-
-  // Obstacle mask, distance field and graded costs on the padded grid.
-  void build_map(const std::int8_t* occupancy) {
-    const int prows = rows_ + 2 * pad_;
-    n_cells_ = static_cast<size_t>(prows) * static_cast<size_t>(stride_);
-    if (n_cells_ * K_ >= (size_t{1} << 31))
-      throw std::invalid_argument("plan_lattice: grid too large (more than 2^31 states)");
-    // 1. Obstacles; the padding is unknown space.
-    obstacle_.assign(n_cells_, p_.unknown_is_obstacle ? 1 : 0);
-    known_.assign(n_cells_, 0);
-    for (int r = 0; r < rows_; ++r) {
-      const std::int8_t* in = occupancy + static_cast<size_t>(r) * cols_;
-      const size_t i0 = padded({r, 0});
-      for (int c = 0; c < cols_; ++c) {
-        known_[i0 + c] = in[c] >= 0;
-        obstacle_[i0 + c] = in[c] >= p_.occupied_threshold || (in[c] < 0 && p_.unknown_is_obstacle);
-      }
-    }
-    // 2. Squared distance (cells) from every cell centre to the nearest obstacle centre.
-    d2_.resize(n_cells_);
-    squared_distance_cells(obstacle_.data(), prows, stride_, d2_.data());
-    // 3. Graded costs, cached by squared distance (integers) as inflate() does.
-    const double h = 0.5 * p_.resolution_m, r_in = pose_[0].r_in_m();
-    const double reject = pose_[0].reject_d2();
-    const double band_m = r_in + h + p_.inflation_m;
-    const int band_d2 = static_cast<int>(std::ceil(square(band_m / p_.resolution_m)));
-    std::vector<std::uint8_t> graded(static_cast<size_t>(band_d2) + 1);
-    for (int d2 = 0; d2 <= band_d2; ++d2) {
-      // beyond: how far the obstacle's edge (half a cell nearer than its centre) lies past r_in
-      const double beyond = std::sqrt(static_cast<double>(d2)) * p_.resolution_m - h - r_in;
-      const double value = kMaxNonObstacle * std::exp(-p_.cost_scaling_factor * std::max(beyond, 0.0));
-      graded[d2] = d2 < reject                      ? kInscribedObstacle
-                   : beyond > p_.inflation_m + 1e-9 ? kFreeSpace
-                   : static_cast<std::uint8_t>(std::clamp(std::floor(value), 0.0, 252.0));
-    }
-    cost_.resize(n_cells_);
-    for (size_t i = 0; i < n_cells_; ++i) {
-      cost_[i] = obstacle_[i]  ? kLethalObstacle
-                 : !known_[i]  ? kNoInformation
-                 : d2_[i] <= band_d2 ? graded[static_cast<int>(d2_[i])]
-                                     : kFreeSpace;
-    }
-    // 4. Search buffers: g and the last action are read only where `reached_` says they were
-    //    written, so they stay uninitialised (the pages of states never reached are never touched).
+  // Search buffers: g and the last action are read only where `reached_` says they were
+  // written, so they stay uninitialised (the pages of states never reached are never touched).
+  void allocate_search() {
     g_.reset(new double[n_cells_ * K_]);
     action_.reset(new std::uint8_t[n_cells_ * K_]);
     reached_.assign(n_cells_, 0);
@@ -467,8 +333,6 @@ class LatticeSearch {
     bearing_.assign(n_cells_, std::numeric_limits<double>::quiet_NaN());
     settled_.assign(n_cells_, 0);
   }
-
-  static double square(double v) { return v * v; }
 
   // Throws std::invalid_argument naming the endpoint, e.g. "plan_lattice: goal (3, 4) is in an
   // obstacle"; heading < 0: some heading must fit.
@@ -558,18 +422,34 @@ class LatticeSearch {
   }
 
   // ---------------------------------------------------------------- heuristic
-  void start_dijkstra() {
+  // The 2-D cost-to-go comes from a search backward from the goal toward the start, resumed
+  // whenever a cell not yet settled is asked about (Reverse Resumable A*, Silver 2005): it
+  // pops cells in order of h + the straight distance to the start (a lower bound on every
+  // move's cost, so consistent: each cell it settles holds its exact cost-to-go, the value
+  // a Dijkstra from the goal gives). The lattice search asks only about cells whose h + g
+  // stays below the plan's cost, and g is at least the straight distance from the start:
+  // the cells settled lie in the ellipse of foci start and goal, not the disc round the goal.
+  void start_reverse_search(int start_cell) {
+    start_row_ = start_cell / stride_;
+    start_col_ = start_cell % stride_;
     h_[goal_cell_] = 0.0;
-    dijkstra_open_.push(0.0, goal_cell_);
+    reverse_open_.push(to_start_m(goal_cell_ / stride_, goal_cell_ % stride_), goal_cell_);
+  }
+
+  // Straight distance (m) from padded cell (row, col) to the start cell.
+  double to_start_m(int row, int col) const {
+    const double dr = row - start_row_, dc = col - start_col_;
+    return p_.resolution_m * std::sqrt(dr * dr + dc * dc);
   }
 
   // Cost-to-go of forward moves from padded cell `a` to the goal, ignoring headings; +inf when
-  // the goal is out of reach. Settles cells in order of cost until `a` is settled.
+  // the goal is out of reach. Settles cells until `a` is settled.
   double cost_to_go_2d(int a) {
-    while (!settled_[a] && !dijkstra_open_.empty()) {
-      const std::int32_t b = dijkstra_open_.pop();
+    while (!settled_[a] && !reverse_open_.empty()) {
+      const std::int32_t b = reverse_open_.pop();
       if (settled_[b]) continue;
       settled_[b] = 1;
+      const int row = b / stride_, col = b % stride_;
       // Relax every move a' -> b that ends here: a' = b - step, both ends possibly valid.
       for (int k = 0; k < K_; ++k) {
         const int from = b - step_[k];
@@ -580,7 +460,8 @@ class LatticeSearch {
         const double h_new = h_[b] + forward_cost(from, k);
         if (h_new < h_[from]) {
           h_[from] = h_new;
-          dijkstra_open_.push(h_new, from);
+          const LatticeHeading& hd = headings_[k];
+          reverse_open_.push(h_new + to_start_m(row - hd.dr, col - hd.dc), from);
         }
       }
     }
@@ -691,32 +572,38 @@ class LatticeSearch {
   }
 
   static constexpr std::uint8_t kUnchecked = 0, kYes = 1, kNo = 2;
-  static constexpr double kSweepStepRad = 3.0 * kPi / 180.0;
 
   struct SettledTest {
     const std::vector<std::uint8_t>* settled;
     bool operator()(std::int32_t i) const { return (*settled)[i] != 0; }
   };
 
+  // What the search reads (lattice_grid.hpp), shared; the hot loops use the references below.
+  std::shared_ptr<const LatticeShapes> shapes_;
+  std::shared_ptr<const LatticeMap> map_;
   int rows_, cols_;
-  LatticeParams p_;
-  Footprint fp_;
-  std::vector<LatticeHeading> headings_;
-  int K_ = 16, pad_ = 0, stride_ = 0;
-  size_t n_cells_ = 0;
+  const LatticeParams& p_;
+  const Footprint& fp_;
+  const std::vector<LatticeHeading>& headings_;
+  int K_, pad_, stride_;
+  size_t n_cells_;
   // Per heading:
-  std::array<GridShape, 16> pose_, move_;
-  GridShape turn_;
-  std::array<std::array<GridShape, 2>, 16> sweep_;      // box robots: the partial turns
-  std::array<int, 16> step_{};                          // padded offset of the forward move
-  std::array<double, 16> length_m_{};                   // its length
-  std::array<std::vector<std::int64_t>, 16> entered_;   // the cells its centre enters
-  std::array<double, 16> per_cost_unit_{};              // L cost_weight / (252 cells entered)
-  std::array<bool, 16> ends_cover_move_{};              // the box's poses at both ends hold the move
-  std::array<std::array<double, 2>, 16> turn_rad_{};    // to k + 1, to k - 1
-  // Per padded cell:
-  std::vector<std::uint8_t> obstacle_, known_, cost_;
-  std::vector<float> d2_;                // squared distance (cells) to the nearest obstacle
+  const std::array<GridShape, 16>& pose_;
+  const std::array<GridShape, 16>& move_;
+  const GridShape& turn_;
+  const std::array<std::array<GridShape, 2>, 16>& sweep_;   // box robots: the partial turns
+  const std::array<int, 16> step_;                          // padded offset of the forward move
+  const std::array<double, 16> length_m_;                   // its length
+  const std::array<std::vector<std::int64_t>, 16>& entered_;  // the cells its centre enters
+  const std::array<double, 16> per_cost_unit_;              // L cost_weight / (252 cells entered)
+  const std::array<bool, 16> ends_cover_move_;              // the box's poses at both ends hold the move
+  const std::array<std::array<double, 2>, 16> turn_rad_;    // to k + 1, to k - 1
+  // Per padded cell, the map's:
+  const std::vector<std::uint8_t>& obstacle_;
+  const std::vector<std::uint8_t>& known_;
+  const std::vector<std::uint8_t>& cost_;
+  const std::vector<float>& d2_;         // squared distance (cells) to the nearest obstacle
+  // Per padded cell, this search's:
   std::vector<std::uint16_t> reached_, closed_;  // a bit per heading
   std::vector<std::uint8_t> turn_ok_;    // kUnchecked, kYes, kNo
   std::vector<std::uint8_t> sweep_ok_;   // per state: 2 bits per side, kUnchecked, kYes, kNo
@@ -727,7 +614,8 @@ class LatticeSearch {
   std::unique_ptr<double[]> g_;
   std::unique_ptr<std::uint8_t[]> action_;
   // The search:
-  OpenList<SettledTest> dijkstra_open_{SettledTest{&settled_}};
+  OpenList<SettledTest> reverse_open_{SettledTest{&settled_}};
+  int start_row_ = 0, start_col_ = 0;    // padded, of the start cell (the reverse search's target)
   int goal_cell_ = 0, goal_heading_ = -1, goal_state_ = -1;
 };
 
