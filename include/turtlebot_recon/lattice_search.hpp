@@ -39,8 +39,10 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <limits>
 #include <memory>
+#include <new>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -182,7 +184,7 @@ class LatticeSearch {
       closed_cell.assign(n_cells_, 0);
     }
     auto open_state = [&](int s, double g) {
-      const int cell = s / K_, k = s % K_;
+      const int cell = cell_of(s), k = heading_of(s);
       if ((closed_[cell] >> k) & 1) return;
       if (((reached_[cell] >> k) & 1) && g >= g_[s]) return;
       reached_[cell] |= 1u << k;
@@ -230,7 +232,7 @@ class LatticeSearch {
         continue;
       }
       if (is_closed(s)) continue;
-      const int cell = s / K_, k = s % K_;
+      const int cell = cell_of(s), k = heading_of(s);
       const double g = g_[s];   // <= turns_within_m where the robot turns in place (open_next)
       closed_[cell] |= 1u << k;
       record(cell, g);
@@ -317,22 +319,44 @@ class LatticeSearch {
   Cell unpadded(int i) const { return {i / stride_ - pad_, i % stride_ - pad_}; }
 
   // ---------------------------------------------------------------- set-up
+  struct Free {
+    void operator()(void* p) const { std::free(p); }
+  };
+  template <class T>
+  using Zeroed = std::unique_ptr<T[], Free>;  // from zeroed()
+
   LatticeSearch(std::shared_ptr<const LatticeShapes> shapes, const std::int8_t* occupancy, int rows, int cols)
       : LatticeSearch(shapes, std::make_shared<const LatticeMap>(occupancy, rows, cols, shapes)) {}
 
-  // Search buffers: g and the last action are read only where `reached_` says they were
-  // written, so they stay uninitialised (the pages of states never reached are never touched).
+  // Search buffers, sized by the grid but paid for by the cells the search touches: g, the
+  // last action, h and the bearing are read only where a bit says they were written, so they
+  // stay uninitialised; the bits and memos start at zero, and large zeroed blocks come from
+  // the kernel's zero pages (calloc), so the pages of cells never reached are never touched.
   void allocate_search() {
+    k_bits_ = 0;
+    while ((1 << k_bits_) < K_) ++k_bits_;
     g_.reset(new double[n_cells_ * K_]);
     action_.reset(new std::uint8_t[n_cells_ * K_]);
-    reached_.assign(n_cells_, 0);
-    closed_.assign(n_cells_, 0);
-    turn_ok_.assign(n_cells_, kUnchecked);
-    sweep_ok_.assign(fp_.round() ? 0 : n_cells_ * K_, 0);
-    h_.assign(n_cells_, std::numeric_limits<double>::infinity());
-    bearing_.assign(n_cells_, std::numeric_limits<double>::quiet_NaN());
-    settled_.assign(n_cells_, 0);
+    h_.reset(new double[n_cells_]);
+    bearing_.reset(new double[n_cells_]);
+    reached_ = zeroed<std::uint16_t>(n_cells_);
+    closed_ = zeroed<std::uint16_t>(n_cells_);
+    turn_ok_ = zeroed<std::uint8_t>(n_cells_);  // kUnchecked
+    sweep_ok_ = zeroed<std::uint8_t>(fp_.round() ? 1 : n_cells_ * K_);
+    flags_ = zeroed<std::uint8_t>(n_cells_);
   }
+
+  // n zeroed T (trivial types), the pages untouched until written.
+  template <class T>
+  static Zeroed<T> zeroed(size_t n) {
+    void* p = std::calloc(n, sizeof(T));
+    if (p == nullptr) throw std::bad_alloc();
+    return Zeroed<T>(static_cast<T*>(p));
+  }
+
+  int cell_of(std::int32_t s) const { return s >> k_bits_; }
+  int heading_of(std::int32_t s) const { return s & (K_ - 1); }
+  bool settled(int a) const { return flags_[a] & kSettled; }
 
   // Throws std::invalid_argument naming the endpoint, e.g. "plan_lattice: goal (3, 4) is in an
   // obstacle"; heading < 0: some heading must fit.
@@ -433,6 +457,7 @@ class LatticeSearch {
     start_row_ = start_cell / stride_;
     start_col_ = start_cell % stride_;
     h_[goal_cell_] = 0.0;
+    flags_[goal_cell_] |= kHasH;
     reverse_open_.push(to_start_m(goal_cell_ / stride_, goal_cell_ % stride_), goal_cell_);
   }
 
@@ -445,27 +470,28 @@ class LatticeSearch {
   // Cost-to-go of forward moves from padded cell `a` to the goal, ignoring headings; +inf when
   // the goal is out of reach. Settles cells until `a` is settled.
   double cost_to_go_2d(int a) {
-    while (!settled_[a] && !reverse_open_.empty()) {
+    while (!settled(a) && !reverse_open_.empty()) {
       const std::int32_t b = reverse_open_.pop();
-      if (settled_[b]) continue;
-      settled_[b] = 1;
+      if (settled(b)) continue;
+      flags_[b] |= kSettled;
       const int row = b / stride_, col = b % stride_;
       // Relax every move a' -> b that ends here: a' = b - step, both ends possibly valid.
       for (int k = 0; k < K_; ++k) {
         const int from = b - step_[k];
-        if (settled_[from] || cost_[from] >= kInscribedObstacle) continue;
+        if (settled(from) || cost_[from] >= kInscribedObstacle) continue;
         bool passable = true;
         for (std::int64_t e : entered_[k]) passable = passable && cost_[from + e] < kLethalObstacle;
         if (!passable) continue;
         const double h_new = h_[b] + forward_cost(from, k);
-        if (h_new < h_[from]) {
+        if (!(flags_[from] & kHasH) || h_new < h_[from]) {
           h_[from] = h_new;
+          flags_[from] |= kHasH;
           const LatticeHeading& hd = headings_[k];
           reverse_open_.push(h_new + to_start_m(row - hd.dr, col - hd.dc), from);
         }
       }
     }
-    return settled_[a] ? h_[a] : std::numeric_limits<double>::infinity();
+    return settled(a) ? h_[a] : std::numeric_limits<double>::infinity();
   }
 
   // The least turning (rad) of any path from (padded cell a, heading k) to the goal. Its moves
@@ -479,7 +505,8 @@ class LatticeSearch {
   // little, never a path).
   double least_turn_rad(int a, int k) {
     const double yaw = headings_[k].yaw_rad;
-    if (std::isnan(bearing_[a])) {  // the direction of D, once per cell
+    if (!(flags_[a] & kHasBearing)) {  // the direction of D, once per cell
+      flags_[a] |= kHasBearing;
       const int dr = goal_cell_ / stride_ - a / stride_, dc = goal_cell_ % stride_ - a % stride_;
       bearing_[a] = a == goal_cell_ ? std::numeric_limits<double>::infinity() : std::atan2(dr, dc);
     }
@@ -501,14 +528,14 @@ class LatticeSearch {
   }
 
   // ---------------------------------------------------------------- A*
-  bool is_closed(std::int32_t s) const { return (closed_[s / K_] >> (s % K_)) & 1; }
+  bool is_closed(std::int32_t s) const { return (closed_[cell_of(s)] >> heading_of(s)) & 1; }
 
   // Best-first search from state s0 until a goal state is closed.
   bool search(int s0, long long* expanded) {
     OpenList open([this](std::int32_t s) { return is_closed(s); });
     // h scaled by (1 + 1e-9): among equal f, the state nearer the goal first (as astar()).
     auto open_state = [&](int s, double g, Action how) {
-      const int cell = s / K_, k = s % K_;
+      const int cell = cell_of(s), k = heading_of(s);
       if ((closed_[cell] >> k) & 1) return;
       if (((reached_[cell] >> k) & 1) && g >= g_[s]) return;
       const double h = heuristic(cell, k);
@@ -523,7 +550,7 @@ class LatticeSearch {
       // 1. Pop the open state with the lowest f = g + h; skip it if already closed (stale).
       const std::int32_t s = open.pop();
       if (is_closed(s)) continue;
-      const int cell = s / K_, k = s % K_;
+      const int cell = cell_of(s), k = heading_of(s);
       closed_[cell] |= 1u << k;
       ++*expanded;
       // 2. Goal test: the goal cell, at the goal heading if one was asked for.
@@ -550,7 +577,7 @@ class LatticeSearch {
     int s = goal_state_;
     path->cost = g_[s];
     for (;;) {
-      const int cell = s / K_, k = s % K_;
+      const int cell = cell_of(s), k = heading_of(s);
       const Action how = static_cast<Action>(action_[s]);
       const Cell c = unpadded(cell);
       path->states.push_back({c.row, c.col, k, how == kTurnLeft || how == kTurnRight, how == kBackward});
@@ -573,9 +600,12 @@ class LatticeSearch {
 
   static constexpr std::uint8_t kUnchecked = 0, kYes = 1, kNo = 2;
 
+  // Per-cell flags of the heuristic.
+  static constexpr std::uint8_t kSettled = 1, kHasH = 2, kHasBearing = 4;
+
   struct SettledTest {
-    const std::vector<std::uint8_t>* settled;
-    bool operator()(std::int32_t i) const { return (*settled)[i] != 0; }
+    const Zeroed<std::uint8_t>* flags;
+    bool operator()(std::int32_t i) const { return ((*flags)[i] & kSettled) != 0; }
   };
 
   // What the search reads (lattice_grid.hpp), shared; the hot loops use the references below.
@@ -586,6 +616,7 @@ class LatticeSearch {
   const Footprint& fp_;
   const std::vector<LatticeHeading>& headings_;
   int K_, pad_, stride_;
+  int k_bits_ = 0;                       // K = 2^k_bits_
   size_t n_cells_;
   // Per heading:
   const std::array<GridShape, 16>& pose_;
@@ -604,17 +635,17 @@ class LatticeSearch {
   const std::vector<std::uint8_t>& cost_;
   const std::vector<float>& d2_;         // squared distance (cells) to the nearest obstacle
   // Per padded cell, this search's:
-  std::vector<std::uint16_t> reached_, closed_;  // a bit per heading
-  std::vector<std::uint8_t> turn_ok_;    // kUnchecked, kYes, kNo
-  std::vector<std::uint8_t> sweep_ok_;   // per state: 2 bits per side, kUnchecked, kYes, kNo
-  std::vector<double> h_;                // heuristic (cost-to-go), final where settled_
-  std::vector<std::uint8_t> settled_;
-  std::vector<double> bearing_;          // direction (rad) to the goal; NaN: not yet, inf: the goal
+  Zeroed<std::uint16_t> reached_, closed_;  // a bit per heading
+  Zeroed<std::uint8_t> turn_ok_;         // kUnchecked, kYes, kNo
+  Zeroed<std::uint8_t> sweep_ok_;        // per state: 2 bits per side, kUnchecked, kYes, kNo
+  Zeroed<std::uint8_t> flags_;           // kSettled, kHasH, kHasBearing
+  std::unique_ptr<double[]> h_;          // heuristic (cost-to-go), where kHasH; final where kSettled
+  std::unique_ptr<double[]> bearing_;    // direction (rad) to the goal, where kHasBearing; inf: the goal
   // Per state:
   std::unique_ptr<double[]> g_;
   std::unique_ptr<std::uint8_t[]> action_;
   // The search:
-  OpenList<SettledTest> reverse_open_{SettledTest{&settled_}};
+  OpenList<SettledTest> reverse_open_{SettledTest{&flags_}};
   int start_row_ = 0, start_col_ = 0;    // padded, of the start cell (the reverse search's target)
   int goal_cell_ = 0, goal_heading_ = -1, goal_state_ = -1;
 };
