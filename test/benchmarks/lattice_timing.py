@@ -7,13 +7,16 @@ for comparing two builds of the native module side by side.
   ``MIN_PAIR_DISTANCE_M`` away in a straight line and reached by the lattice from that start
   (``lattice_cost_to_come`` finite there); the planner is then asked for exactly such plans.
 - ``time_plans``: each pair planned ``repeats`` times through the Python facade; per pair the
-  median, so the figures are the median and p95 over the pairs.
+  median, so the figures are the median and p95 over the pairs; on the map as loaded (replans:
+  what the planner builds per map is reused) and with the map's bytes changed before each plan.
 - ``time_generated``: the 400 x 400 building of bench-map corner to corner (the waffle_pi), and
   a 2,000 x 2,000 one, with the process's peak resident memory after it.
 
 Run as a script it prints one JSON object of these figures; ``--native PATH`` loads that build
 of ``turtlebot_recon._native`` instead of the installed one (e.g. main's, copied aside), so two
-builds can be timed alternately in one session: the figures of each run go to stdout.
+builds can be timed alternately in one session: the figures of each run go to stdout;
+``--compare OLD_SO --rounds N`` runs both builds N times, alternately, and prints the medians
+side by side with their ratios.
 """
 import argparse
 import importlib.util
@@ -21,6 +24,7 @@ import json
 import math
 import resource
 import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -44,6 +48,9 @@ if __name__ == "__main__":
     _parser.add_argument("--worlds", nargs="+", default=None, help="worlds (names or YAML paths)")
     _parser.add_argument("--no-generated", action="store_true", help="skip the 400^2 / 2000^2 plans")
     _parser.add_argument("--only-2000", action="store_true", help="only the 2000^2 plan (peak memory)")
+    _parser.add_argument("--compare", metavar="OLD_SO",
+                         help="time that build and the installed one alternately, in fresh processes")
+    _parser.add_argument("--rounds", type=int, default=3, help="with --compare: runs of each")
     ARGS = _parser.parse_args()
     if ARGS.native:
         _load_native(ARGS.native)
@@ -92,14 +99,20 @@ def reachable_pairs(world, robot, n: int, seed: int, settings: LatticeSettings) 
     return pairs
 
 
-def time_plans(world, robot, pairs: list, settings: LatticeSettings, repeats: int) -> dict:
+def time_plans(world, robot, pairs: list, settings: LatticeSettings, repeats: int,
+               new_map: bool = False) -> dict:
     """Per pair the median time (ms) of ``repeats`` plans; the median and p95 over the pairs,
-    the plans' total cost (a check that two builds find the same paths) and failures."""
+    the plans' total cost (a check that two builds find the same paths) and failures.
+    ``new_map``: before each plan one corner cell changes between two values on the same side
+    of the occupied threshold (100 / 99, or 0 / 1): the same map to plan on, but not the bytes
+    the planner last saw, so nothing built for it can be reused (a replan after a map update)."""
     occ, res, origin = world.occupancy(), world.resolution, world.origin
     per_pair, cost_sum, failures = [], 0.0, 0
     for start, goal in pairs:
         times = []
         for _ in range(repeats):
+            if new_map:
+                occ[0, 0] = {100: 99, 99: 100, 0: 1, 1: 0}[int(occ[0, 0])]
             t0 = time.perf_counter()
             try:
                 path = plan_lattice(occ, res, origin, robot, start, goal, settings)
@@ -125,6 +138,8 @@ def time_worlds(worlds, n_pairs: int, repeats: int, seed: int = 0) -> dict:
             settings = LatticeSettings.for_robot(robot)
             pairs = reachable_pairs(world, robot, n_pairs, seed + 100 * i + j, settings)
             out[f"{world.name}/{robot_name}"] = time_plans(world, robot, pairs, settings, repeats)
+            out[f"{world.name}/{robot_name}/new_map"] = time_plans(world, robot, pairs, settings,
+                                                                  repeats, new_map=True)
     return out
 
 
@@ -145,7 +160,42 @@ def time_generated(n: int, repeats: int) -> dict:
             f"lattice_peak_rss_mb_before_{n}": base_mb, f"lattice_peak_rss_mb_after_{n}": peak_mb}
 
 
+def flat(figures: dict, prefix: str = "") -> dict:
+    out = {}
+    for key, value in figures.items():
+        if isinstance(value, dict):
+            out.update(flat(value, f"{prefix}{key}/"))
+        else:
+            out[prefix + key] = value
+    return out
+
+
+def compare(old_so: str, rounds: int, extra: list) -> None:
+    """Runs this script ``rounds`` times with ``old_so`` and with the installed build,
+    alternately (the machine's load falls on both alike); prints each figure's median over the
+    rounds, old and new side by side, and their ratio."""
+    runs = {"old": [], "new": []}
+    for _ in range(rounds):
+        for which in ("old", "new"):
+            cmd = [sys.executable, __file__, *extra] + (["--native", old_so] if which == "old" else [])
+            done = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            runs[which].append(flat(json.loads(done.stdout.strip().splitlines()[-1])))
+    print(f"{'figure':<58} {'old':>10} {'new':>10} {'old/new':>8}")
+    for key in sorted(runs["new"][0]):
+        old = statistics.median(r[key] for r in runs["old"])
+        new = statistics.median(r[key] for r in runs["new"])
+        ratio = f"{old / new:8.2f}" if new else ""
+        print(f"{key:<58} {old:10.3f} {new:10.3f} {ratio}")
+
+
 def main() -> None:
+    if ARGS.compare:
+        extra = [f"--repeats={ARGS.repeats}", f"--pairs={ARGS.pairs}"]
+        extra += ["--worlds", *ARGS.worlds] if ARGS.worlds else []
+        extra += ["--no-generated"] if ARGS.no_generated else []
+        extra += ["--only-2000"] if ARGS.only_2000 else []
+        compare(ARGS.compare, ARGS.rounds, extra)
+        return
     figures = {}
     if ARGS.only_2000:
         figures.update(time_generated(2000, 1))
