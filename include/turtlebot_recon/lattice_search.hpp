@@ -185,9 +185,9 @@ class LatticeSearch {
     }
     auto open_state = [&](int s, double g) {
       const int cell = cell_of(s), k = heading_of(s);
-      if ((closed_[cell] >> k) & 1) return;
-      if (((reached_[cell] >> k) & 1) && g >= g_[s]) return;
-      reached_[cell] |= 1u << k;
+      if ((cells_[cell].closed >> k) & 1) return;
+      if (((cells_[cell].reached >> k) & 1) && g >= g_[s]) return;
+      cells_[cell].reached |= 1u << k;
       g_[s] = g;
       open.push(g, s);
     };
@@ -234,7 +234,7 @@ class LatticeSearch {
       if (is_closed(s)) continue;
       const int cell = cell_of(s), k = heading_of(s);
       const double g = g_[s];   // <= turns_within_m where the robot turns in place (open_next)
-      closed_[cell] |= 1u << k;
+      cells_[cell].closed |= 1u << k;
       record(cell, g);
       if (forward_clear(cell, k)) open_next(cell + step_[k], k, g + forward_cost(cell, k));
       if (backward_clear(cell, k)) open_next(cell - step_[k], k, g + backward_cost(cell, k));
@@ -337,13 +337,8 @@ class LatticeSearch {
     while ((1 << k_bits_) < K_) ++k_bits_;
     g_.reset(new double[n_cells_ * K_]);
     action_.reset(new std::uint8_t[n_cells_ * K_]);
-    h_.reset(new double[n_cells_]);
-    bearing_.reset(new double[n_cells_]);
-    reached_ = zeroed<std::uint16_t>(n_cells_);
-    closed_ = zeroed<std::uint16_t>(n_cells_);
-    turn_ok_ = zeroed<std::uint8_t>(n_cells_);  // kUnchecked
+    cells_ = zeroed<CellState>(n_cells_);  // turn_ok kUnchecked
     sweep_ok_ = zeroed<std::uint8_t>(fp_.round() ? 1 : n_cells_ * K_);
-    flags_ = zeroed<std::uint8_t>(n_cells_);
   }
 
   // n zeroed T (trivial types), the pages untouched until written.
@@ -356,7 +351,7 @@ class LatticeSearch {
 
   int cell_of(std::int32_t s) const { return s >> k_bits_; }
   int heading_of(std::int32_t s) const { return s & (K_ - 1); }
-  bool settled(int a) const { return flags_[a] & kSettled; }
+  bool settled(int a) const { return cells_[a].flags & kSettled; }
 
   // Throws std::invalid_argument naming the endpoint, e.g. "plan_lattice: goal (3, 4) is in an
   // obstacle"; heading < 0: some heading must fit.
@@ -426,8 +421,8 @@ class LatticeSearch {
 
   // Turning in place at padded cell `a` (memoised: every heading there asks).
   bool turn_clear(int a) {
-    if (turn_ok_[a] == kUnchecked) turn_ok_[a] = turn_.clear(obstacle_.data(), a, d2_[a]) ? kYes : kNo;
-    return turn_ok_[a] == kYes;
+    if (cells_[a].turn_ok == kUnchecked) cells_[a].turn_ok = turn_.clear(obstacle_.data(), a, d2_[a]) ? kYes : kNo;
+    return cells_[a].turn_ok == kYes;
   }
 
   // Turning from heading k at padded cell `a` to k + 1 (side 0) or k - 1 (side 1): all the way
@@ -456,8 +451,8 @@ class LatticeSearch {
   void start_reverse_search(int start_cell) {
     start_row_ = start_cell / stride_;
     start_col_ = start_cell % stride_;
-    h_[goal_cell_] = 0.0;
-    flags_[goal_cell_] |= kHasH;
+    cells_[goal_cell_].h = 0.0;
+    cells_[goal_cell_].flags |= kHasH;
     reverse_open_.push(to_start_m(goal_cell_ / stride_, goal_cell_ % stride_), goal_cell_);
   }
 
@@ -473,7 +468,7 @@ class LatticeSearch {
     while (!settled(a) && !reverse_open_.empty()) {
       const std::int32_t b = reverse_open_.pop();
       if (settled(b)) continue;
-      flags_[b] |= kSettled;
+      cells_[b].flags |= kSettled;
       const int row = b / stride_, col = b % stride_;
       // Relax every move a' -> b that ends here: a' = b - step, both ends possibly valid.
       for (int k = 0; k < K_; ++k) {
@@ -482,16 +477,16 @@ class LatticeSearch {
         bool passable = true;
         for (std::int64_t e : entered_[k]) passable = passable && cost_[from + e] < kLethalObstacle;
         if (!passable) continue;
-        const double h_new = h_[b] + forward_cost(from, k);
-        if (!(flags_[from] & kHasH) || h_new < h_[from]) {
-          h_[from] = h_new;
-          flags_[from] |= kHasH;
+        const double h_new = cells_[b].h + forward_cost(from, k);
+        if (!(cells_[from].flags & kHasH) || h_new < cells_[from].h) {
+          cells_[from].h = h_new;
+          cells_[from].flags |= kHasH;
           const LatticeHeading& hd = headings_[k];
           reverse_open_.push(h_new + to_start_m(row - hd.dr, col - hd.dc), from);
         }
       }
     }
-    return settled(a) ? h_[a] : std::numeric_limits<double>::infinity();
+    return settled(a) ? cells_[a].h : std::numeric_limits<double>::infinity();
   }
 
   // The least turning (rad) of any path from (padded cell a, heading k) to the goal. Its moves
@@ -505,12 +500,12 @@ class LatticeSearch {
   // little, never a path).
   double least_turn_rad(int a, int k) {
     const double yaw = headings_[k].yaw_rad;
-    if (!(flags_[a] & kHasBearing)) {  // the direction of D, once per cell
-      flags_[a] |= kHasBearing;
+    if (!(cells_[a].flags & kHasBearing)) {  // the direction of D, once per cell
+      cells_[a].flags |= kHasBearing;
       const int dr = goal_cell_ / stride_ - a / stride_, dc = goal_cell_ % stride_ - a % stride_;
-      bearing_[a] = a == goal_cell_ ? std::numeric_limits<double>::infinity() : std::atan2(dr, dc);
+      cells_[a].bearing = a == goal_cell_ ? std::numeric_limits<double>::infinity() : std::atan2(dr, dc);
     }
-    double beta = std::isinf(bearing_[a]) ? 0.0 : angle_between(bearing_[a], yaw);
+    double beta = std::isinf(cells_[a].bearing) ? 0.0 : angle_between(cells_[a].bearing, yaw);
     if (p_.reverse_cost_factor > 0.0) beta = std::min(beta, kPi - beta);
     if (goal_heading_ >= 0) beta = std::max(beta, angle_between(headings_[goal_heading_].yaw_rad, yaw));
     return beta;
@@ -528,7 +523,7 @@ class LatticeSearch {
   }
 
   // ---------------------------------------------------------------- A*
-  bool is_closed(std::int32_t s) const { return (closed_[cell_of(s)] >> heading_of(s)) & 1; }
+  bool is_closed(std::int32_t s) const { return (cells_[cell_of(s)].closed >> heading_of(s)) & 1; }
 
   // Best-first search from state s0 until a goal state is closed.
   bool search(int s0, long long* expanded) {
@@ -538,11 +533,11 @@ class LatticeSearch {
     // 2,000 x 2,000 grid.
     auto open_state = [&](int s, double g, Action how) __attribute__((always_inline)) {
       const int cell = cell_of(s), k = heading_of(s);
-      if ((closed_[cell] >> k) & 1) return;
-      if (((reached_[cell] >> k) & 1) && g >= g_[s]) return;
+      if ((cells_[cell].closed >> k) & 1) return;
+      if (((cells_[cell].reached >> k) & 1) && g >= g_[s]) return;
       const double h = heuristic(cell, k);
       if (!std::isfinite(h)) return;
-      reached_[cell] |= 1u << k;
+      cells_[cell].reached |= 1u << k;
       g_[s] = g;
       action_[s] = how;
       open.push(g + (1.0 + 1e-9) * h, s);
@@ -553,7 +548,7 @@ class LatticeSearch {
       const std::int32_t s = open.pop();
       if (is_closed(s)) continue;
       const int cell = cell_of(s), k = heading_of(s);
-      closed_[cell] |= 1u << k;
+      cells_[cell].closed |= 1u << k;
       ++*expanded;
       // 2. Goal test: the goal cell, at the goal heading if one was asked for.
       if (cell == goal_cell_ && (goal_heading_ < 0 || k == goal_heading_)) {
@@ -605,9 +600,19 @@ class LatticeSearch {
   // Per-cell flags of the heuristic.
   static constexpr std::uint8_t kSettled = 1, kHasH = 2, kHasBearing = 4;
 
+  // What the search keeps per padded cell, in one place (one cache line where it had six).
+  struct CellState {
+    double h;                  // heuristic (cost-to-go), where kHasH; final where kSettled
+    double bearing;            // direction (rad) to the goal, where kHasBearing; inf: the goal
+    std::uint16_t reached;     // a bit per heading
+    std::uint16_t closed;      // a bit per heading
+    std::uint8_t flags;        // kSettled, kHasH, kHasBearing
+    std::uint8_t turn_ok;      // kUnchecked, kYes, kNo
+  };
+
   struct SettledTest {
-    const Zeroed<std::uint8_t>* flags;
-    bool operator()(std::int32_t i) const { return ((*flags)[i] & kSettled) != 0; }
+    const Zeroed<CellState>* cells;
+    bool operator()(std::int32_t i) const { return ((*cells)[i].flags & kSettled) != 0; }
   };
 
   // What the search reads (lattice_grid.hpp), shared; the hot loops use the references below.
@@ -637,17 +642,13 @@ class LatticeSearch {
   const std::vector<std::uint8_t>& cost_;
   const std::vector<float>& d2_;         // squared distance (cells) to the nearest obstacle
   // Per padded cell, this search's:
-  Zeroed<std::uint16_t> reached_, closed_;  // a bit per heading
-  Zeroed<std::uint8_t> turn_ok_;         // kUnchecked, kYes, kNo
+  Zeroed<CellState> cells_;
   Zeroed<std::uint8_t> sweep_ok_;        // per state: 2 bits per side, kUnchecked, kYes, kNo
-  Zeroed<std::uint8_t> flags_;           // kSettled, kHasH, kHasBearing
-  std::unique_ptr<double[]> h_;          // heuristic (cost-to-go), where kHasH; final where kSettled
-  std::unique_ptr<double[]> bearing_;    // direction (rad) to the goal, where kHasBearing; inf: the goal
   // Per state:
   std::unique_ptr<double[]> g_;
   std::unique_ptr<std::uint8_t[]> action_;
   // The search:
-  OpenList<SettledTest> reverse_open_{SettledTest{&flags_}};
+  OpenList<SettledTest> reverse_open_{SettledTest{&cells_}};
   int start_row_ = 0, start_col_ = 0;    // padded, of the start cell (the reverse search's target)
   int goal_cell_ = 0, goal_heading_ = -1, goal_state_ = -1;
 };
