@@ -328,10 +328,11 @@ class LatticeSearch {
   LatticeSearch(std::shared_ptr<const LatticeShapes> shapes, const std::int8_t* occupancy, int rows, int cols)
       : LatticeSearch(shapes, std::make_shared<const LatticeMap>(occupancy, rows, cols, shapes)) {}
 
-  // Search buffers, sized by the grid but paid for by the cells the search touches: g, the
-  // last action, h and the bearing are read only where a bit says they were written, so they
-  // stay uninitialised; the bits and memos start at zero, and large zeroed blocks come from
-  // the kernel's zero pages (calloc), so the pages of cells never reached are never touched.
+  // Search buffers, sized by the grid but paid for by the cells the search touches: g and the
+  // last action are read only where `reached` says they were written, so they stay
+  // uninitialised; the per-cell records (h and the bearing read only where their flags say
+  // written) and the sweep memos start at zero, and large zeroed blocks come from the kernel's
+  // zero pages (calloc), so the pages of cells never reached are never touched.
   void allocate_search() {
     k_bits_ = 0;
     while ((1 << k_bits_) < K_) ++k_bits_;
@@ -443,9 +444,9 @@ class LatticeSearch {
   // ---------------------------------------------------------------- heuristic
   // The 2-D cost-to-go comes from a search backward from the goal toward the start, resumed
   // whenever a cell not yet settled is asked about (Reverse Resumable A*, Silver 2005): it
-  // pops cells in order of h + the straight distance to the start (a lower bound on every
-  // move's cost, so consistent: each cell it settles holds its exact cost-to-go, the value
-  // a Dijkstra from the goal gives). The lattice search asks only about cells whose h + g
+  // pops cells in order of h + the shortest lattice drive to the start (a lower bound on
+  // every move's cost, so consistent: each cell it settles holds its exact cost-to-go, the
+  // value a Dijkstra from the goal gives). The lattice search asks only about cells whose h + g
   // stays below the plan's cost, and g is at least the straight distance from the start:
   // the cells settled lie in the ellipse of foci start and goal, not the disc round the goal.
   void start_reverse_search(int start_cell) {
@@ -456,10 +457,20 @@ class LatticeSearch {
     reverse_open_.push(to_start_m(goal_cell_ / stride_, goal_cell_ % stride_), goal_cell_);
   }
 
-  // Straight distance (m) from padded cell (row, col) to the start cell.
+  // The shortest drive (m) from padded cell (row, col) to the start cell along lattice
+  // vectors alone: by symmetry in the octant x >= y >= 0, the two vectors either side of
+  // (x, y) (16 headings: (1, 0), (2, 1), (1, 1); 8: (1, 0), (1, 1); 4: (1, 0) and (0, 1)).
+  // A norm no longer than any move's cost, so a consistent key; 1-3 % above the straight
+  // distance between the headings, which narrows the ellipse.
   double to_start_m(int row, int col) const {
-    const double dr = row - start_row_, dc = col - start_col_;
-    return p_.resolution_m * std::sqrt(dr * dr + dc * dc);
+    double x = std::abs(col - start_col_), y = std::abs(row - start_row_);
+    if (y > x) std::swap(x, y);
+    double cells;
+    if (K_ == 4) cells = x + y;
+    else if (K_ == 8) cells = kSqrt2 * y + (x - y);
+    else if (2 * y <= x) cells = kSqrt5 * y + (x - 2 * y);        // (2, 1) and (1, 0)
+    else cells = kSqrt2 * (2 * y - x) + kSqrt5 * (x - y);         // (1, 1) and (2, 1)
+    return p_.resolution_m * cells;
   }
 
   // Cost-to-go of forward moves from padded cell `a` to the goal, ignoring headings; +inf when
@@ -596,6 +607,7 @@ class LatticeSearch {
   }
 
   static constexpr std::uint8_t kUnchecked = 0, kYes = 1, kNo = 2;
+  static constexpr double kSqrt2 = 1.41421356237309504880, kSqrt5 = 2.23606797749978969641;
 
   // Per-cell flags of the heuristic.
   static constexpr std::uint8_t kSettled = 1, kHasH = 2, kHasBearing = 4;
