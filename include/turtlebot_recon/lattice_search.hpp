@@ -331,8 +331,8 @@ class LatticeSearch {
   // Search buffers, sized by the grid but paid for by the cells the search touches: g and the
   // last action are read only where `reached` says they were written, so they stay
   // uninitialised; the per-cell records (h and the bearing read only where their flags say
-  // written) and the sweep memos start at zero, and large zeroed blocks come from the kernel's
-  // zero pages (calloc), so the pages of cells never reached are never touched.
+  // written) and the sweep memos start at zero (calloc: a fresh large block is the kernel's
+  // zero pages, untouched where no cell is reached; one recycled from the heap is cleared).
   void allocate_search() {
     k_bits_ = 0;
     while ((1 << k_bits_) < K_) ++k_bits_;
