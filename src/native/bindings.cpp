@@ -23,6 +23,7 @@ void register_body_field(py::module_& m);  // body_field.cpp (the controllers' o
 void register_dwa(py::module_& m);  // dwa.cpp (the dynamic window approach)
 void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
 void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
+void register_octomap(py::module_& m);  // octomap_layer.cpp (the 3-D obstacle layer)
 
 namespace {
 
@@ -72,4 +73,5 @@ PYBIND11_MODULE(_native, m) {
   register_dwa(m);
   register_ilqr(m);
   register_mppi(m);
+  register_octomap(m);
 }
