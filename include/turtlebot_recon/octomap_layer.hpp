@@ -42,8 +42,9 @@ void validate(const OctomapParams& params);
 
 // What insert_point_cloud did with a cloud.
 struct CloudStats {
-  int inserted = 0;    // finite points handed to OctoMap (beyond max range: cleared up to it)
-  int non_finite = 0;  // points with a NaN or infinite coordinate: skipped
+  int inserted = 0;     // points handed to OctoMap (beyond max range: cleared up to it)
+  int non_finite = 0;   // points with a NaN or infinite coordinate: skipped
+  int above_max_z = 0;  // points higher than max_z_m: skipped
 };
 
 // The 2-D grid the layer is projected onto (any resolution and origin; the lidar grid's).
@@ -77,11 +78,13 @@ class OctomapLayer {
   // hit; a point farther than max_range_m clears its ray up to max_range_m and marks nothing
   // (max_range_m <= 0: no limit). discretize: OctoMap's option, one ray per end voxel rather
   // than per point (faster on dense clouds; the same end voxels). Points with a non-finite
-  // coordinate are skipped and counted. Throws std::invalid_argument on a non-finite origin
-  // or max range.
+  // coordinate are skipped, and so are points higher than max_z_m (octomap_server's
+  // pointcloud_max_z: the free space of rays rising above the robot is most of a depth
+  // frame's cost and none of the layer's concern); both are counted. Throws
+  // std::invalid_argument on a non-finite origin or max range, or a NaN max_z_m.
   CloudStats insert_point_cloud(const float* xyz, std::size_t count, double origin_x,
                                 double origin_y, double origin_z, double max_range_m,
-                                bool discretize);
+                                double max_z_m, bool discretize);
 
   // Writes rows*cols int8 into `out`: 100 where an occupied voxel whose centre height lies in
   // (floor_band_m, robot_height_m] covers the cell (its square footprint overlaps the cell's),

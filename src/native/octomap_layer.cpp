@@ -76,10 +76,11 @@ void OctomapLayer::apply_sensor_model() {
 
 CloudStats OctomapLayer::insert_point_cloud(const float* xyz, std::size_t count, double origin_x,
                                             double origin_y, double origin_z, double max_range_m,
-                                            bool discretize) {
+                                            double max_z_m, bool discretize) {
   check(std::isfinite(origin_x) && std::isfinite(origin_y) && std::isfinite(origin_z),
         "insert_point_cloud: the sensor origin must be finite");
   check(std::isfinite(max_range_m), "insert_point_cloud: max_range_m must be finite (<= 0: no limit)");
+  check(!std::isnan(max_z_m), "insert_point_cloud: max_z_m must be a number (inf: no limit)");
   std::lock_guard<std::mutex> lock(mutex_);
   CloudStats stats;
   cloud_.clear();
@@ -88,6 +89,10 @@ CloudStats OctomapLayer::insert_point_cloud(const float* xyz, std::size_t count,
     const float* p = xyz + 3 * i;
     if (!finite3(p[0], p[1], p[2])) {
       ++stats.non_finite;
+      continue;
+    }
+    if (p[2] > max_z_m) {
+      ++stats.above_max_z;
       continue;
     }
     cloud_.push_back(p[0], p[1], p[2]);
@@ -213,7 +218,8 @@ std::size_t point_count(const py::array& a, const char* fn, const char* name) {
 
 std::string repr(const CloudStats& s) {
   std::ostringstream o;
-  o << "CloudStats(inserted=" << s.inserted << ", non_finite=" << s.non_finite << ")";
+  o << "CloudStats(inserted=" << s.inserted << ", non_finite=" << s.non_finite
+    << ", above_max_z=" << s.above_max_z << ")";
   return o.str();
 }
 
@@ -227,11 +233,12 @@ std::string repr(const OctomapLayer& l) {
 }
 
 CloudStats py_insert(OctomapLayer& layer, const FloatArray& points, double origin_x,
-                     double origin_y, double origin_z, double max_range_m, bool discretize) {
+                     double origin_y, double origin_z, double max_range_m, double max_z_m,
+                     bool discretize) {
   const std::size_t n = point_count(points, "insert_point_cloud", "points");
   py::gil_scoped_release release;
   return layer.insert_point_cloud(points.data(), n, origin_x, origin_y, origin_z, max_range_m,
-                                  discretize);
+                                  max_z_m, discretize);
 }
 
 py::array_t<std::int8_t> py_project(const OctomapLayer& layer, int rows, int cols,
@@ -275,6 +282,7 @@ void register_octomap(py::module_& m) {
       .def_readonly("inserted", &CloudStats::inserted,
                     "finite points ray-cast into the tree (beyond max range: cleared up to it)")
       .def_readonly("non_finite", &CloudStats::non_finite, "points with a NaN or inf coordinate: skipped")
+      .def_readonly("above_max_z", &CloudStats::above_max_z, "points higher than max_z_m: skipped")
       .def("__repr__", [](const CloudStats& s) { return repr(s); });
 
   py::class_<OctomapLayer>(
@@ -296,11 +304,12 @@ void register_octomap(py::module_& m) {
            py::arg("resolution"), py::arg("prob_hit"), py::arg("prob_miss"),
            py::arg("clamping_thres_min"), py::arg("clamping_thres_max"), py::arg("occupancy_thres"))
       .def("insert_point_cloud", &py_insert, py::arg("points"), py::arg("origin_x"),
-           py::arg("origin_y"), py::arg("origin_z"), py::arg("max_range_m"), py::arg("discretize"),
+           py::arg("origin_y"), py::arg("origin_z"), py::arg("max_range_m"), py::arg("max_z_m"),
+           py::arg("discretize"),
            "Ray-cast points (n, 3) float32 (m, map frame) from the sensor origin with OctoMap's\n"
            "insertPointCloud: crossed voxels free, end voxels occupied; a point beyond max_range_m\n"
-           "clears its ray up to it (<= 0: no limit). Non-finite points are skipped. Returns\n"
-           "CloudStats.")
+           "clears its ray up to it (<= 0: no limit). Non-finite points and points above max_z_m\n"
+           "(m; inf: no limit) are skipped. Returns CloudStats.")
       .def("project", &py_project, py::arg("rows"), py::arg("cols"), py::arg("resolution"),
            py::arg("origin_x"), py::arg("origin_y"), py::arg("floor_band_m"),
            py::arg("robot_height_m"),
