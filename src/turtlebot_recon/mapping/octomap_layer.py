@@ -60,8 +60,8 @@ class OctomapSettings:
                 f"must be >= 0, got {self.floor_band_m!r}")
         require(math.isfinite(self.robot_height_m) and self.robot_height_m >= 0, src, "robot_height_m",
                 f"must be >= 0 (0: the robot's body height), got {self.robot_height_m!r}")
-        require(self.robot_height_m == 0 or self.robot_height_m > self.floor_band_m, src,
-                "robot_height_m", f"must be above floor_band_m ({self.floor_band_m}), got {self.robot_height_m}")
+        require(self.robot_height_m == 0 or self.robot_height_m > self.floor_band_m, src, "robot_height_m",
+                f"must be above floor_band_m ({self.floor_band_m}), got {self.robot_height_m}")
         require(0.5 < self.prob_hit < 1.0, src, "prob_hit", f"must be in (0.5, 1), got {self.prob_hit}")
         require(0.0 < self.prob_miss < 0.5, src, "prob_miss", f"must be in (0, 0.5), got {self.prob_miss}")
         require(0.0 < self.clamping_thres_min < self.occupancy_thres < self.clamping_thres_max < 1.0,
@@ -135,5 +135,6 @@ def merge_obstacles(occupancy: np.ndarray, layer: np.ndarray) -> np.ndarray:
     """The lidar grid (int8 -1 / 0..100) with the layer's obstacles added: the cell-wise maximum
     (the layer's -1 changes nothing, its OBSTACLE always wins). Same shapes required."""
     if occupancy.shape != layer.shape:
-        raise ValueError(f"merge_obstacles: the layer's shape {layer.shape} is not the grid's {occupancy.shape}")
+        raise ValueError(f"merge_obstacles: the layer's shape {layer.shape} is not the grid's "
+                         f"{occupancy.shape}")
     return np.maximum(occupancy, layer)
