@@ -174,7 +174,7 @@ def test_the_floor_is_no_obstacle():
 
 def test_an_overhang_below_the_robot_top_is_projected_and_one_above_it_is_not():
     low_shelf = scene.box(1.02, -0.6, 0.30, 1.52, -0.2, 0.36)  # between the scan plane and 0.40 m
-    high_shelf = scene.box(1.02, 0.2, 0.45, 1.52, 0.6, 0.50)   # above the robot's top
+    high_shelf = scene.box(1.02, 0.2, 0.41, 1.52, 0.6, 0.44)   # above the robot's top
     boxes = [FLOOR, low_shelf, high_shelf]
     grid = lidar_grid(boxes)
     layer = new_layer()
@@ -195,7 +195,7 @@ def test_an_overhang_below_the_robot_top_is_projected_and_one_above_it_is_not():
 def test_non_finite_points_are_skipped_and_counted():
     good = np.array([[1.0, 0.0, 0.2], [1.0, 0.5, 0.1], [0.8, -0.4, 0.3]])
     bad = np.array([[np.nan, 0, 0], [0, np.inf, 0], [0, 0, -np.inf], [np.nan, np.nan, np.nan]])
-    high = np.array([[1.0, 0.0, 0.9]])                         # above max_point_z_m 0.5
+    high = np.array([[1.0, 0.0, 0.9]])                         # above max_point_z_m 0.45
     layer, reference = new_layer(), new_layer()
     stats = layer.insert(np.vstack((bad[:2], good[:2], high, bad[2:], good[2:])), (0, 0, 0.287))
     assert (stats.inserted, stats.non_finite, stats.above_max_z) == (3, 4, 1)

@@ -37,10 +37,12 @@ class OctomapSettings:
     resolution_m: float = 0.05         # m, finest voxel edge (the lidar grid's cell: one voxel a cell)
     max_range_m: float = 4.0           # m, points farther clear their ray up to here and mark
                                        # nothing (the TurtleBot 2's Astra/Kinect reach, DESIGN §5)
-    max_point_z_m: float = 0.5         # m, higher points are not inserted (octomap_server's
+    max_point_z_m: float = 0.45        # m, higher points are not inserted (octomap_server's
                                        # pointcloud_max_z): the free space of rays rising above
-                                       # the robot is most of a frame's cost (4 m range: 60 ms of
-                                       # 78) and none of the layer's concern; >= robot_height_m
+                                       # the robot is most of a frame's cost (4 m range, 160 x
+                                       # 120: 83-99 ms of CPU without the limit, 17-24 ms with
+                                       # it) and none of the layer's concern; >= robot_height_m
+                                       # (the TurtleBot 2's 0.40 m and one voxel)
     discretize: bool = True            # OctoMap's option: one ray per end voxel, not per point
                                        # (the same voxels hit; fewer rays)
     floor_band_m: float = 0.03         # m, voxels centred at or below this are the floor
