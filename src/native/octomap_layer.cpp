@@ -61,8 +61,18 @@ void validate(const OctomapParams& p) {
             std::to_string(p.clamping_thres_max));
 }
 
+namespace {
+
+// The parameters, once validate() has passed them (the tree is built only from valid ones).
+const OctomapParams& checked(const OctomapParams& p) {
+  validate(p);
+  return p;
+}
+
+}  // namespace
+
 OctomapLayer::OctomapLayer(const OctomapParams& params)
-    : params_((validate(params), params)), tree_(params.resolution) {
+    : params_(checked(params)), tree_(params.resolution) {
   apply_sensor_model();
 }
 

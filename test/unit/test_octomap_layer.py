@@ -15,6 +15,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import octomap_figures as scene  # noqa: E402
 
+from turtlebot_recon import _native  # noqa: E402
 from turtlebot_recon.config import ConfigError, from_dict  # noqa: E402
 from turtlebot_recon.mapping import GridSettings, make_grid  # noqa: E402
 from turtlebot_recon.mapping.map_io import OCCUPIED_THRESH  # noqa: E402
@@ -234,6 +235,9 @@ def test_bad_settings_and_grids_are_refused():
         OctomapLayer(OctomapSettings())                        # the robot's height unresolved
     with pytest.raises(ValueError, match="rows > 0"):
         new_layer().project(0, 10, RES, (0, 0))
+    with pytest.raises(ValueError, match="resolution must be > 0 m"):    # the C++ core's own check
+        _native.OctomapLayer(resolution=0.0, prob_hit=0.7, prob_miss=0.4, clamping_thres_min=0.12,
+                             clamping_thres_max=0.97, occupancy_thres=0.5)
     with pytest.raises(ValueError, match="shape"):
         merge_obstacles(np.zeros((3, 3), np.int8), np.zeros((3, 4), np.int8))
 
