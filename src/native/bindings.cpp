@@ -24,6 +24,7 @@ void register_dwa(py::module_& m);  // dwa.cpp (the dynamic window approach)
 void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
 void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
 void register_sampling(py::module_& m);  // sampling_planner.cpp (OMPL's planners)
+void register_octomap(py::module_& m);  // octomap_layer.cpp (the 3-D obstacle layer)
 
 namespace {
 
@@ -74,4 +75,5 @@ PYBIND11_MODULE(_native, m) {
   register_ilqr(m);
   register_mppi(m);
   register_sampling(m);
+  register_octomap(m);
 }

@@ -299,6 +299,7 @@ HEADER_STRUCTS = {
     ("camera_coverage.hpp", "CoverageParams"): ("explorer.yaml", ("tag_search", "coverage"), {}),
     ("costmap.hpp", "InflationParams"): (None, (), {}),
     ("mppi/optimizer.hpp", "OptimizerSettings"): ("mppi.yaml", (), {}),
+    ("octomap_layer.hpp", "OctomapParams"): ("octomap.yaml", (), {"resolution": "resolution_m"}),
 }
 
 
