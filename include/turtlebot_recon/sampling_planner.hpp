@@ -15,7 +15,7 @@
 // p2), so the state space says so and RRT* checks each direction.
 //
 // The path-length objective is this cost; its heuristic, the SE(2) distance with the yaw
-// weighted by turn_cost_m_per_rad (|dp| + k |dyaw|), never exceeds it (the turns of any path
+// weighted by a fifth of turn_cost_m_per_rad (|dp| + k |dyaw| / 5), never exceeds it (the turns of any path
 // add up to at least the net change of heading), so RRT*'s, Informed RRT*'s and BIT*'s
 // heuristics stay admissible. Half the samples are drawn at cells where the robot can turn
 // in place (its turning disc fits): uniform samples almost never land in a maze corridor's
