@@ -198,10 +198,10 @@ class TurnDriveModel {
 
 // 45 % of the samples at the centre of a cell where the robot can turn, at a uniform yaw; 10 %
 // on the start's or a goal's line at its heading (TurnDriveModel::add_line_spots); the other
-// 45 % uniform over the space. A box robot turns in place only where its turning disc fits, in a corridor
-// of a maze a band a few centimetres wide about the centre line, and leaves a start (reaches
-// a goal) off that band only straight along its heading; uniform samples almost never land
-// on either, so a path round a corner is almost never found.
+// 45 % uniform over the space. A box robot turns in place only where its turning disc fits,
+// in a corridor of a maze a band a few centimetres wide about the centre line, and leaves a
+// start (reaches a goal) off that band only straight along its heading; uniform samples
+// almost never land on either, so a path round a corner is almost never found.
 class TurnSpotSampler : public ob::StateSampler {
  public:
   TurnSpotSampler(const ob::StateSpace* space, const TurnDriveModel& model)
