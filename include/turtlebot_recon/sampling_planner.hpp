@@ -3,27 +3,29 @@
 //
 // The motion model is the lattice's and the navigator's follower's: a differential-drive
 // robot turns in place, drives straight, turns in place. A motion from (x1, y1, yaw1) to
-// (x2, y2, yaw2) turns at p1 from yaw1 to the segment's direction d, drives forward along d to
-// p2, turns at p2 from d to yaw2; or, where the robot may back (the lattice's backward moves,
-// dearer by reverse_cost_factor), faces the other way and drives backward. It is valid when the footprint keeps `margin_m` off every
-// obstacle cell's square all the way (turn_margin_m while turning; footprint.hpp's exact test,
-// answered first by the distance field far from obstacles) and the robot's centre never leaves known free cells
-// (the lattice never enters unknown ones either). Its cost is the lattice's: metres driven
-// (backward ones x reverse_cost_factor) plus turn_cost_m_per_rad per radian turned; the
-// planners see the cheaper way, the validator says whether either is clear. Costs are not
-// symmetric, nor, forward only, is validity (a box sweeps other cells turning at p1 than at
-// p2), so the state space says so and RRT* checks each direction.
+// (x2, y2, yaw2) turns at p1 from yaw1 to the segment's direction d, drives forward along d
+// to p2, turns at p2 from d to yaw2; or, where the robot may back (the lattice's backward
+// moves, dearer by reverse_cost_factor), faces the other way and drives backward. It is valid
+// when the footprint keeps `margin_m` off every obstacle cell's square all the way
+// (turn_margin_m while turning; footprint.hpp's exact test, answered first by the distance
+// field away from obstacles) and the robot's centre stays on known free cells (the lattice
+// never enters unknown ones either). Its cost is the lattice's: metres driven (backward ones
+// x reverse_cost_factor) plus turn_cost_m_per_rad per radian turned; the planners see the
+// cheaper way, the validator says whether either is clear. Costs are not symmetric, nor,
+// forward only, is validity (a box sweeps other cells turning at p1 than at p2), so the state
+// space says so and RRT* checks each direction.
 //
 // The path-length objective is this cost; its heuristic, the SE(2) distance with the yaw
-// weighted by turn_cost_m_per_rad (|dp| + k |dyaw|), never exceeds it (the turns of any path
-// add up to at least the net change of heading), so RRT*'s, Informed RRT*'s and BIT*'s
-// heuristics stay admissible. Half the samples are drawn at cells where the robot can turn
-// in place (its turning disc fits): uniform samples almost never land in a maze corridor's
-// few centimetres about its centre line where a box robot turns, and without them no path
-// rounds a corner. After the solve, OMPL's simplifier (vertex reduction, shortcuts,
-// collapsing close vertices) shortens the path; then each inner vertex's yaw is set to the
-// next segment's direction, the path the follower drives (a turn at each vertex straight from
-// one segment's direction to the next), and that path is checked again.
+// weighted by a fifth of turn_cost_m_per_rad (|dp| + k |dyaw| / 5), never exceeds it (the
+// turns of any path add up to at least the net change of heading), so RRT*'s, Informed
+// RRT*'s and BIT*'s heuristics stay admissible. Half the samples are drawn where the robot
+// can turn in place (its turning disc fits), a tenth on the start's and the goals' lines:
+// uniform samples almost never land in a maze corridor's few centimetres about its centre
+// line where a box robot turns, and without them no path rounds a corner. After the solve,
+// OMPL's simplifier (vertex reduction, shortcuts, collapsing close vertices) shortens the
+// path; then each inner vertex's yaw is set to the heading held on the segment into it (the
+// path the follower drives: a turn at each vertex straight from one heading to the next),
+// and that path is checked again (the planner's own path where the simplified one fails).
 //
 // Poses are in metres from the grid's corner (cell (0, 0) spans [0, res] x [0, res]); grids
 // row-major, row 0 at the smallest y.
@@ -39,10 +41,12 @@
 namespace turtlebot_recon::planning {
 
 struct SamplingRequest {
-  std::string planner = "rrtconnect";  // rrtconnect | rrtstar | informed_rrtstar | prmstar | bitstar
-  double budget_s = 0.2;               // the solve's wall-time limit; the simplifier gets as much again at most
+  std::string planner = "rrtconnect";  // rrtconnect | rrtstar | informed_rrtstar | prmstar |
+                                       // bitstar
+  double budget_s = 0.2;               // the solve's wall-time limit (s); the simplifier's is
+                                       // as long again at most
   double margin_m = 0.02;              // body to obstacle edge (the lattice's margin_m)
-  double turn_margin_m = 0.01;         // the same while turning in place (the lattice's turn_margin_m)
+  double turn_margin_m = 0.01;         // the same turning in place (the lattice's)
   double turn_cost_m_per_rad = 0.3;    // metres charged per radian turned (the lattice's)
   double reverse_cost_factor = 0.0;    // a backward metre costs this many forward ones (>= 1);
                                        // 0: forward only (the lattice's)
@@ -60,6 +64,7 @@ struct SampledPath {
   std::string reason;        // why not, when not solved
   double solve_s = 0.0;      // wall time of the planner's solve
   double simplify_s = 0.0;   // wall time of the simplification
+  int vertices = 0;          // states in the planner's graph or trees when it stopped
   double length_m = 0.0;     // driven (x-y)
   double turned_rad = 0.0;   // turned in place, the start's and the goal's turns included
   double reversed_m = 0.0;   // of length_m, driven backward

@@ -25,6 +25,7 @@ void register_ilqr(py::module_& m);  // ilqr.cpp (Tube MPPI's ancillary tracker)
 void register_mppi(py::module_& m);  // mppi.cpp (the MPPI controller's optimizer)
 void register_sampling(py::module_& m);  // sampling_planner.cpp (OMPL's planners)
 void register_rrt_seed003(py::module_& m);  // rrt_seed003.cpp (seed 003's RRT, the baseline)
+void register_octomap(py::module_& m);  // octomap_layer.cpp (the 3-D obstacle layer)
 
 namespace {
 
@@ -76,4 +77,5 @@ PYBIND11_MODULE(_native, m) {
   register_mppi(m);
   register_sampling(m);
   register_rrt_seed003(m);
+  register_octomap(m);
 }

@@ -1,6 +1,9 @@
 // Lattice area of turtlebot_recon._native: the state-lattice A* for an oriented footprint
 // (include/turtlebot_recon/lattice_search.hpp). This file only converts numpy arrays and
 // releases the GIL around the search. Grids are row-major (rows, cols), row 0 = smallest y.
+// Every function here takes the footprint's regions and the map's products from one cache
+// (lattice_grid.hpp's LatticeCache): a replan on an unchanged map, or the costmap and the
+// reach of one map, build them once.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -22,6 +25,16 @@ using namespace turtlebot_recon::bindings;  // numpy argument types and shape ch
 
 namespace {
 
+tp::LatticeCache cache;  // the module's: shared by every call, whichever thread makes it
+
+// A search over `occupancy` for this robot and these parameters, from the cache.
+tp::LatticeSearch search_over(const I8Grid& occupancy, const Shape& s, const tp::Footprint& footprint,
+                              const tp::LatticeParams& params) {
+  auto shapes = cache.shapes(footprint, params, static_cast<int>(s.cols));
+  auto map = cache.map(occupancy.data(), static_cast<int>(s.rows), static_cast<int>(s.cols), shapes);
+  return tp::LatticeSearch(shapes, map);
+}
+
 py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<int, int> start,
                          double start_yaw, std::pair<int, int> goal, std::optional<double> goal_yaw,
                          double footprint_length_m, double footprint_width_m,
@@ -42,7 +55,7 @@ py::dict py_plan_lattice(const I8Grid& occupancy, double resolution, std::pair<i
   std::vector<tp::LatticeHeading> table;
   {
     py::gil_scoped_release release;
-    tp::LatticeSearch search(occupancy.data(), s.rows, s.cols, footprint, params);
+    tp::LatticeSearch search = search_over(occupancy, s, footprint, params);
     table = search.headings();
     const int k0 = tp::nearest_heading(table, start_yaw);
     const int k1 = goal_yaw ? tp::nearest_heading(table, *goal_yaw) : -1;
@@ -101,7 +114,7 @@ py::array_t<std::uint8_t> py_footprint_costmap(const I8Grid& occupancy, double r
   std::uint8_t* dst = out.mutable_data();
   {
     py::gil_scoped_release release;
-    tp::LatticeSearch(occupancy.data(), s.rows, s.cols, footprint, params).costmap(dst);
+    search_over(occupancy, s, footprint, params).costmap(dst);
   }
   return out;
 }
@@ -133,7 +146,7 @@ py::array_t<float> py_lattice_cost_to_come(const I8Grid& occupancy, double resol
   float* dst = out.mutable_data();
   {
     py::gil_scoped_release release;
-    tp::LatticeSearch search(occupancy.data(), s.rows, s.cols, footprint, params);
+    tp::LatticeSearch search = search_over(occupancy, s, footprint, params);
     search.reach_from({start.first, start.second}, start_yaw,
                       static_cast<int>(snap_radius_m / resolution), extra, dst, turns_within_m);
   }

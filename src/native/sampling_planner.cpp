@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include <ompl/base/PlannerData.h>
 #include <ompl/base/ProblemDefinition.h>
 #include <ompl/base/SpaceInformation.h>
 #include <ompl/base/goals/GoalStates.h>
@@ -61,7 +62,7 @@ class TurnDriveModel {
         reverse_(rq.reverse_cost_factor),
         threshold_(rq.occupied_threshold),
         field_(occupancy, rows, cols, res, 0.0, 0.0, rq.occupied_threshold),
-        reach_(control::outline_body(fp, res).radius_m) {
+        body_(control::outline_body(fp, 0.5 * res)), reach_(body_.radius_m) {
     for (int r = 0; r < rows; ++r)
       for (int c = 0; c < cols; ++c)
         if (known_free(r, c) && field_.cell(r, c) >= fp.radius_m + turn_margin_)
@@ -72,18 +73,26 @@ class TurnDriveModel {
   // off every obstacle: the robot turns there at will (for a round robot: where it fits).
   const std::vector<std::array<double, 2>>& turn_spots() const { return turn_spots_; }
 
-  // The points where a robot that cannot turn at (x, y, yaw) can, driving straight along yaw
-  // (sign +1: ahead of it, the start's way out; -1: behind it, a goal's way in), up to
-  // `reach_m`, as long as the footprint fits on the way.
-  void add_line_spots(double x, double y, double yaw, int sign, double reach_m) {
+  // Poses on the line a robot at (x, y, yaw) drives along without turning (sign +1: ahead of
+  // it, the start's way out; -1: behind it, a goal's way in), every half cell as far as the
+  // footprint fits, at that yaw. A robot that cannot turn where it starts (or ends) reaches
+  // the first place where it can only along this line.
+  // How many it added.
+  int add_line_spots(double x, double y, double yaw, int sign) {
     const double ux = sign * std::cos(yaw), uy = sign * std::sin(yaw);
-    for (double t = 0.5 * res_; t <= reach_m; t += 0.5 * res_) {
+    int n = 0;
+    for (double t = 0.5 * res_;; t += 0.5 * res_, ++n) {
       const double px = x + ux * t, py = y + uy * t;
       if (!pose_clear(px, py, yaw)) break;
-      if (field_.at(px, py) >= fp_.radius_m + turn_margin_ + 0.5 * res_) line_spots_.push_back({px, py});
+      line_spots_.push_back({px, py, yaw});
     }
+    return n;
   }
-  const std::vector<std::array<double, 2>>& line_spots() const { return line_spots_; }
+  // Whether the robot turns in place at will at (x, y) (half a cell to spare).
+  bool turnable(double x, double y) const {
+    return field_.at(x, y) >= fp_.radius_m + turn_margin_ + 0.5 * res_;
+  }
+  const std::vector<Pose>& line_spots() const { return line_spots_; }
 
   // The centre on a known free cell and the footprint `margin` off every obstacle.
   bool pose_clear(double x, double y, double yaw) const { return pose_clear(x, y, yaw, margin_); }
@@ -92,8 +101,13 @@ class TurnDriveModel {
     if (!known_free(static_cast<int>(std::floor(y / res_)), static_cast<int>(std::floor(x / res_))))
       return false;
     // Far from obstacles the field answers: its values may run up to about half a cell long
-    // (centre-to-centre distances, interpolated), so one cell of slack.
+    // (centre-to-centre distances, interpolated), so one cell of slack at base_footprint; along
+    // a box's outline (points half a cell apart: a corner poking between two comes up to a
+    // quarter cell nearer) half a cell and a quarter.
     if (field_.at(x, y) - reach_ >= margin + res_) return true;
+    if (!fp_.round() &&
+        control::body_clearance(field_, body_, x, y, yaw, margin + res_) >= margin + 0.75 * res_)
+      return true;
     auto is_obstacle = [this](int rr, int cc) {
       if (rr < 0 || rr >= rows_ || cc < 0 || cc >= cols_) return true;
       return occ_[static_cast<size_t>(rr) * cols_ + cc] >= threshold_;
@@ -176,28 +190,38 @@ class TurnDriveModel {
   double margin_, turn_margin_, k_, reverse_;
   int threshold_;
   control::DistanceField field_;
+  control::BodyOutline body_;  // the box's outline every half cell, for the field's answer
   double reach_;  // the body's farthest point from base_footprint
-  std::vector<std::array<double, 2>> turn_spots_, line_spots_;
+  std::vector<std::array<double, 2>> turn_spots_;
+  std::vector<Pose> line_spots_;
 };
 
-// Samples where the robot can turn, at a uniform yaw: 45 % at the centre of such a cell, 10 %
-// on the start's or a goal's line (TurnDriveModel::add_line_spots); the other 45 % uniform
-// over the space. A box robot turns in place only where its turning disc fits, in a corridor
-// of a maze a band a few centimetres wide about the centre line, and leaves a start (reaches
-// a goal) off that band only straight along its heading; uniform samples almost never land
-// on either, so a path round a corner is almost never found.
+// 45 % of the samples at the centre of a cell where the robot can turn, at a uniform yaw; 10 %
+// on the start's or a goal's line at its heading (TurnDriveModel::add_line_spots); the other
+// 45 % uniform over the space. A box robot turns in place only where its turning disc fits,
+// in a corridor of a maze a band a few centimetres wide about the centre line, and leaves a
+// start (reaches a goal) off that band only straight along its heading; uniform samples
+// almost never land on either, so a path round a corner is almost never found.
 class TurnSpotSampler : public ob::StateSampler {
  public:
   TurnSpotSampler(const ob::StateSpace* space, const TurnDriveModel& model)
       : ob::StateSampler(space), model_(model), uniform_(space->allocDefaultStateSampler()) {}
   void sampleUniform(ob::State* state) override {
     const double u = rng_.uniform01();
-    const auto& spots = u < 0.1 && !model_.line_spots().empty() ? model_.line_spots() : model_.turn_spots();
-    if (spots.empty() || u >= 0.55) return uniform_->sampleUniform(state);
-    const auto& p = spots[static_cast<size_t>(rng_.uniformInt(0, static_cast<int>(spots.size()) - 1))];
     auto* se2 = state->as<ob::SE2StateSpace::StateType>();
-    se2->setXY(p[0], p[1]);
-    se2->setYaw(rng_.uniformReal(-kPi, kPi));
+    const auto& lines = model_.line_spots();
+    const auto& spots = model_.turn_spots();
+    if (u < 0.1 && !lines.empty()) {
+      const Pose& p = lines[pick(lines.size())];
+      se2->setXY(p[0], p[1]);
+      se2->setYaw(so2(p[2]));
+    } else if (u < 0.55 && !spots.empty()) {
+      const auto& p = spots[pick(spots.size())];
+      se2->setXY(p[0], p[1]);
+      se2->setYaw(rng_.uniformReal(-kPi, kPi));
+    } else {
+      uniform_->sampleUniform(state);
+    }
   }
   void sampleUniformNear(ob::State* state, const ob::State* near, double distance) override {
     uniform_->sampleUniformNear(state, near, distance);
@@ -207,36 +231,41 @@ class TurnSpotSampler : public ob::StateSampler {
   }
 
  private:
+  size_t pick(size_t n) { return static_cast<size_t>(rng_.uniformInt(0, static_cast<int>(n) - 1)); }
+
   const TurnDriveModel& model_;
   ob::StateSamplerPtr uniform_;
 };
 
 // Informed RRT*'s and BIT*'s sampler: TurnSpotSampler's samples whose heuristic solution cost
 // (OMPL's: cost-to-come heuristic + cost-to-go) beats the best cost so far, by rejection
-// (OMPL's direct ellipse sampler would draw its own uniform samples instead).
+// (OMPL's direct ellipse sampler would draw its own uniform samples instead). After
+// kTries misses (an informed set a sliver of the map; BIT* allows 2^32 - 1 tries, which hung
+// a solve for minutes) the last sample stands, as an uninformed one.
 class TurnSpotInformedSampler : public ob::InformedSampler {
  public:
+  static constexpr unsigned int kTries = 200;
   TurnSpotInformedSampler(const ob::ProblemDefinitionPtr& pdef, unsigned int max_calls)
       : ob::InformedSampler(pdef, max_calls), sampler_(space_->allocStateSampler()) {}
   bool sampleUniform(ob::State* state, const ob::Cost& max_cost) override {
-    for (unsigned int i = 0; i < numIters_; ++i) {
-      sampler_->sampleUniform(state);
-      if (opt_->isCostBetterThan(heuristicSolnCost(state), max_cost)) return true;
-    }
-    return false;
+    return sampleUniform(state, opt_->infiniteCost(), max_cost, false);
   }
   bool sampleUniform(ob::State* state, const ob::Cost& min_cost, const ob::Cost& max_cost) override {
-    for (unsigned int i = 0; i < numIters_; ++i) {
-      sampler_->sampleUniform(state);
-      const ob::Cost c = heuristicSolnCost(state);
-      if (opt_->isCostBetterThan(c, max_cost) && !opt_->isCostBetterThan(c, min_cost)) return true;
-    }
-    return false;
+    return sampleUniform(state, min_cost, max_cost, true);
   }
   bool hasInformedMeasure() const override { return false; }
   double getInformedMeasure(const ob::Cost&) const override { return space_->getMeasure(); }
 
  private:
+  bool sampleUniform(ob::State* state, const ob::Cost& min_cost, const ob::Cost& max_cost, bool floor) {
+    for (unsigned int i = 0; i < std::min(numIters_, kTries); ++i) {
+      sampler_->sampleUniform(state);
+      const ob::Cost c = heuristicSolnCost(state);
+      if (opt_->isCostBetterThan(c, max_cost) && !(floor && opt_->isCostBetterThan(c, min_cost))) return true;
+    }
+    return true;
+  }
+
   ob::StateSamplerPtr sampler_;
 };
 
@@ -245,10 +274,22 @@ Pose pose_of(const ob::State* s) {
   return {se2->getX(), se2->getY(), se2->getYaw()};
 }
 
-// SE(2) whose motions (TurnDriveModel's) are not the same both ways.
+// SE(2) with TurnDriveModel's motions: not the same both ways; and a state part of the way
+// from one to another lies on the segment's axis, facing along it the way nearer `from`'s
+// yaw, so that it is reached from `from` (a start tree's step) or reaches it (a goal tree's,
+// RRT-Connect's) without turning, forward or backward, in a corridor where no turn fits.
 class ForwardSe2Space : public ob::SE2StateSpace {
  public:
   bool hasSymmetricInterpolate() const override { return false; }
+  void interpolate(const ob::State* from, const ob::State* to, double t, ob::State* state) const override {
+    if (t <= 0.0 || t >= 1.0) return copyState(state, t <= 0.0 ? from : to);
+    const Pose a = pose_of(from), b = pose_of(to);
+    auto* se2 = state->as<StateType>();
+    se2->setXY(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]));
+    if (std::hypot(b[0] - a[0], b[1] - a[1]) < 1e-9) return se2->setYaw(so2(a[2] + t * wrap(b[2] - a[2])));
+    const double axis = std::atan2(b[1] - a[1], b[0] - a[0]);
+    se2->setYaw(so2(std::fabs(wrap(axis - a[2])) <= 0.5 * kPi ? axis : axis + kPi));
+  }
 };
 
 // Directed trees ask for the motion s1 -> s2. An undirected roadmap (PRM*) may drive an edge
@@ -313,19 +354,22 @@ class TurnDriveObjective : public ob::PathLengthOptimizationObjective {
   const TurnDriveModel& model_;
 };
 
-// The trees' extension step (m, with the yaw's weight): OMPL's default, a fifth of the space's
-// extent, is metres in a building: nearly every long step ends in a wall.
-constexpr double kRangeM = 1.0;
+// The trees' extension step: 1 m of driving (OMPL's default, a fifth of the space's extent, is
+// metres in a building: nearly every long step ends in a wall) plus the largest yaw term of
+// the distance, k pi. A step's state faces along the step's axis (ForwardSe2Space::interpolate),
+// so its yaw term to the target stays up to k pi however near it comes: with a shorter range,
+// RRT-Connect's connect loop (which checks no termination condition) would step for ever.
+double tree_range(double turn_cost_m_per_rad) { return 1.0 + turn_cost_m_per_rad * kPi; }
 
-ob::PlannerPtr make_planner(const std::string& name, const ob::SpaceInformationPtr& si) {
+ob::PlannerPtr make_planner(const std::string& name, const ob::SpaceInformationPtr& si, double range) {
   if (name == "rrtconnect") {
     auto p = std::make_shared<og::RRTConnect>(si);
-    p->setRange(kRangeM);
+    p->setRange(range);
     return p;
   }
   if (name == "rrtstar" || name == "informed_rrtstar") {
     auto p = name == "rrtstar" ? std::make_shared<og::RRTstar>(si) : std::make_shared<og::InformedRRTstar>(si);
-    p->setRange(kRangeM);
+    p->setRange(range);
     return p;
   }
   if (name == "prmstar") return std::make_shared<og::PRMstar>(si);
@@ -432,16 +476,38 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
     out.reason = "the goal is off the map, on an unknown or obstacle cell, or the footprint fits there at none of the goal's headings";
     return out;
   }
-  model.add_line_spots(rq.start[0], rq.start[1], rq.start[2], +1, kRangeM);
-  for (double yaw : yaws) model.add_line_spots(rq.goal[0], rq.goal[1], yaw, -1, kRangeM);
+  model.add_line_spots(rq.start[0], rq.start[1], rq.start[2], +1);
+  if (model.reverse_factor() > 0) model.add_line_spots(rq.start[0], rq.start[1], rq.start[2], -1);
+  // Goal states the robot can enter: where it turns at will, or along the line it arrives on
+  // (forward, or backward where it may back); the longest way in first. RRT-Connect grows its
+  // goal tree from the first goal state and takes the next only as that tree grows: a first
+  // one that cannot be entered (a box facing across a corridor) would stop it for good.
+  std::vector<std::pair<int, double>> entries;
+  const bool turnable = model.turnable(rq.goal[0], rq.goal[1]);
+  for (double yaw : yaws) {
+    int way_in = model.add_line_spots(rq.goal[0], rq.goal[1], yaw, -1);
+    if (model.reverse_factor() > 0) way_in += model.add_line_spots(rq.goal[0], rq.goal[1], yaw, +1);
+    if (way_in > 0 || turnable) entries.push_back({way_in, yaw});
+  }
+  std::stable_sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  yaws.clear();
+  for (const auto& e : entries) yaws.push_back(e.second);
+  if (yaws.empty()) {
+    out.reason = "the goal cannot be entered: the footprint fits there only at headings with no straight way in, and no turn in place";
+    return out;
+  }
 
   auto space = std::make_shared<ForwardSe2Space>();
   ob::RealVectorBounds bounds(2);
   bounds.setLow(0, 0.0), bounds.setHigh(0, cols * resolution_m);
   bounds.setLow(1, 0.0), bounds.setHigh(1, rows * resolution_m);
   space->setBounds(bounds);
-  // The yaw's weight in the distance: the metres a radian of turning costs (> 0 for a metric).
-  space->setSubspaceWeight(1, std::max(model.turn_cost(), 1e-3));
+  // The yaw's weight in the distance: a fifth of the metres a radian of turning costs (> 0 for
+  // a metric). Any weight up to that cost keeps the heuristic a lower bound; a small one makes
+  // the trees' neighbours the states near in position, which a motion's turns connect anyway
+  // (with the full weight, RRT-Connect solved 1 of 3 maze pairs for the waffle_pi in 0.2 s,
+  // with a fifth 2 of 3).
+  space->setSubspaceWeight(1, std::max(0.2 * model.turn_cost(), 1e-3));
   space->setStateSamplerAllocator([&model](const ob::StateSpace* sp) -> ob::StateSamplerPtr {
     return std::make_shared<TurnSpotSampler>(sp, model);
   });
@@ -473,12 +539,17 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
   auto objective = std::make_shared<TurnDriveObjective>(si, model);
   pdef->setOptimizationObjective(objective);
 
-  ob::PlannerPtr planner = make_planner(rq.planner, si);
+  ob::PlannerPtr planner = make_planner(rq.planner, si, tree_range(space->getSubspaceWeight(1)));
   planner->setProblemDefinition(pdef);
   planner->setup();
   auto t0 = std::chrono::steady_clock::now();
   const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(rq.budget_s));
   out.solve_s = seconds_since(t0);
+  {
+    ob::PlannerData data(si);
+    planner->getPlannerData(data);
+    out.vertices = static_cast<int>(data.numVertices());
+  }
   if (status != ob::PlannerStatus::EXACT_SOLUTION || !pdef->hasExactSolution()) {
     out.reason = std::string("no path within ") + std::to_string(rq.budget_s) + " s (" +
                  status.asString() + ")";
@@ -556,6 +627,7 @@ py::dict py_plan_sampling(const I8Grid& occupancy, double resolution, std::array
   out["turned_rad"] = path.turned_rad;
   out["cost_m"] = path.cost_m;
   out["reversed_m"] = path.reversed_m;
+  out["vertices"] = path.vertices;
   py::array_t<bool> reversed(static_cast<py::ssize_t>(path.reversed.size()));
   for (size_t i = 0; i < path.reversed.size(); ++i) reversed.mutable_data()[i] = path.reversed[i];
   out["reversed"] = reversed;
@@ -571,12 +643,13 @@ void register_sampling(py::module_& m) {
         py::arg("start"), py::arg("goal_xy"), py::arg("goal_yaws"), py::arg("planner"),
         py::arg("budget_s"), py::arg("footprint_length_m"), py::arg("footprint_width_m"),
         py::arg("footprint_offset_x_m"), py::arg("radius_m"), py::arg("margin_m"),
-        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("reverse_cost_factor"), py::arg("occupied_threshold"), py::arg("simplify") = true,
+        py::arg("turn_margin_m"), py::arg("turn_cost_m_per_rad"), py::arg("reverse_cost_factor"), py::arg("occupied_threshold"), py::arg("simplify"),
         "An OMPL plan start -> goal for the footprint (include/turtlebot_recon/sampling_planner.hpp):\n"
         "start (x, y, yaw) and goal_xy in metres from the grid's corner, goal_yaws the headings the\n"
         "goal may be reached at (those where the footprint fits are goal states). A dict: poses\n"
         "(n, 3) start ... goal with each inner yaw the heading held on the segment into it,\n"
         "reversed (n,) whether that segment is driven backward, solved (an exact, followable\n"
-        "path), reason (why not), solve_s, simplify_s, length_m, turned_rad, reversed_m, cost_m.\n"
+        "path), reason (why not), solve_s, simplify_s, length_m, turned_rad, reversed_m, cost_m,\n"
+        "vertices (the planner's graph or trees when it stopped).\n"
         "ValueError for an unknown planner or a bad argument.");
 }

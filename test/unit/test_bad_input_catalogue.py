@@ -37,6 +37,8 @@ from turtlebot_recon.perception.families import dictionary
 from turtlebot_recon.perception.image import ImageError, camera_model, compressed_to_gray, raw_to_gray
 from turtlebot_recon.perception.tracker import TagTracker, TrackerSettings
 from turtlebot_recon.planning.navigation import Navigation, NavigationSettings
+from turtlebot_recon.planning.costmap import PlanningError
+from turtlebot_recon.planning.sampling import plan_sampling
 from turtlebot_recon.robot import load_robot
 from turtlebot_recon.ros import convert, explore_msgs, navigator_msgs
 from turtlebot_recon.ros.bags import BagReader, write_rosbag
@@ -185,6 +187,38 @@ def bad_goal(x: float, y: float) -> Callable[[Path], str]:
         assert nav.status == "failed" and nav.map is not None
         line = nav.reason
         still_plans(nav)                                   # the next goal is taken
+        return line
+    return run
+
+
+def ompl_goal_walled_off(_tmp) -> str:
+    """An OMPL planner's navigator (planner:=ompl_rrtconnect), a goal behind a wall with no
+    door: the goal fails naming the planner and its budget; the next goal is planned."""
+    nav = Navigation(NavigationSettings(controller="pure_pursuit", planner="ompl_rrtconnect",
+                                        sampling_budget_s=0.1), load_robot("turtlebot3_burger"))
+    occ = walled_room()
+    occ[:, 50:52] = 100                                     # a wall across the room, x 2.5 m
+    nav.update_map(occ, RES, (0.0, 0.0))
+    assert nav.set_goal(3.5, 1.5)
+    nav.step(0.0, (1.0, 1.0, 0.0), (0.0, 0.0))
+    assert nav.status == "failed"
+    line = nav.reason
+    assert nav.set_goal(2.0, 2.0)                            # on this side: planned, driven
+    v, w = nav.step(0.1, (1.0, 1.0, 0.0), (0.0, 0.0))
+    assert nav.status == "active" and math.isfinite(v) and math.isfinite(w)
+    return line
+
+
+def ompl_end_blocked(start, goal) -> Callable[[Path], str]:
+    """plan_sampling (the OMPL planners' core) on a start or goal it cannot use: PlanningError
+    in one line, no solve; the next request is planned."""
+    def run(_tmp) -> str:
+        robot = load_robot("turtlebot3_waffle_pi")
+        line = refused(lambda: plan_sampling(walled_room(), RES, (0.0, 0.0), robot, start, goal,
+                                             "bitstar", 0.1), error=PlanningError)
+        path = plan_sampling(walled_room(), RES, (0.0, 0.0), robot, (1.0, 1.0, 0.0), (3.0, 2.0),
+                             "rrtconnect", 0.2)
+        assert math.dist(path.poses[-1, :2], (3.0, 2.0)) < 1e-9
         return line
     return run
 
@@ -534,6 +568,15 @@ CASES = [
          "the goal fails with that reason; the next goal planned", bad_goal(NAN, 1.0)),
     Case("goal_inf", "a goal at (1, inf)", "navigator: Navigation.set_goal", "is not finite",
          "the goal fails with that reason; the next goal planned", bad_goal(1.0, INF)),
+    Case("ompl_goal_walled_off", "a goal no path reaches, planner:=ompl_rrtconnect",
+         "navigator: Navigation (planning.sampling)", "plan_sampling (rrtconnect): no path within 0.1",
+         "the goal fails with that reason; the next goal planned", ompl_goal_walled_off),
+    Case("ompl_start_in_wall", "an OMPL plan from a start on a wall", "planning.sampling.plan_sampling",
+         "the start is off the map, on an unknown or obstacle cell",
+         "no solve; the next request planned", ompl_end_blocked((0.02, 1.0, 0.0), (3.0, 2.0))),
+    Case("ompl_goal_off_map", "an OMPL plan to a goal off the map", "planning.sampling.plan_sampling",
+         "the goal is off the map", "no solve; the next request planned",
+         ompl_end_blocked((1.0, 1.0, 0.0), (9.0, 2.0))),
     Case("goal_same_1000_per_s", "the goal being pursued sent 1,000 times a second",
          "navigator: Navigation.set_goal", "was sent again (", "its plan kept; the robot arrives",
          goal_1000_per_s),

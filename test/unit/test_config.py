@@ -17,6 +17,7 @@ from turtlebot_recon.exploration.goals import GoalBookSettings
 from turtlebot_recon.exploration.tag_search import TagSearchSettings
 from turtlebot_recon.exploration.strategies import DEFAULT_STRATEGY, STRATEGIES
 from turtlebot_recon.mapping.mapper import MapperSettings
+from turtlebot_recon.mapping.octomap_layer import OctomapSettings
 from turtlebot_recon.perception.detector import DetectorNodeSettings
 from turtlebot_recon.perception.tracker import TrackerNodeSettings
 from turtlebot_recon.planning.lattice import LatticeSettings
@@ -39,6 +40,7 @@ CONFIG = TOP / "config"
 BLOCKS = {
     ("sim_bridge.yaml", ()): SimSettings,
     ("mapper.yaml", ()): MapperSettings,
+    ("octomap.yaml", ()): OctomapSettings,
     ("navigator.yaml", ()): NavigationSettings,
     ("lattice.yaml", ()): LatticeSettings,
     ("dwa.yaml", ()): DwaSettings,

@@ -294,11 +294,12 @@ OCCUPIED_THRESH = int(re.search(r"^OCCUPIED_THRESH, FREE_THRESH = (\d+), \d+",
 HEADER_STRUCTS = {
     ("occupancy_grid.hpp", "GridSettings"): ("mapper.yaml", ("grid",), {}),
     ("visibility.hpp", "VisibilityParams"): ("explorer.yaml", ("frontiers",), {"beams": "gain_beams"}),
-    ("lattice_search.hpp", "LatticeParams"): ("lattice.yaml", (), {}),
+    ("lattice_grid.hpp", "LatticeParams"): ("lattice.yaml", (), {}),
     ("scan_matcher.hpp", "MatcherParams"): ("slam.yaml", ("slam", "matcher"), {}),
     ("camera_coverage.hpp", "CoverageParams"): ("explorer.yaml", ("tag_search", "coverage"), {}),
     ("costmap.hpp", "InflationParams"): (None, (), {}),
     ("mppi/optimizer.hpp", "OptimizerSettings"): ("mppi.yaml", (), {}),
+    ("octomap_layer.hpp", "OctomapParams"): ("octomap.yaml", (), {"resolution": "resolution_m"}),
 }
 
 

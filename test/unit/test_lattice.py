@@ -613,6 +613,77 @@ def test_unknown_cells_are_never_entered():
         lattice(occ, WAFFLE, centre(18, 10), centre(18, 70)[:2], unknown_is_obstacle=True)
 
 
+# ---------------------------------------------------------------- what searches share
+
+def test_a_map_changed_in_place_is_planned_on_as_it_stands():
+    # The footprint's regions and the map's products are cached between calls (lattice_grid.hpp),
+    # the map keyed by its bytes: the same array, its gap closed, then reopened, is planned on as
+    # it stands each time. Two rooms through the 0.6 m gap (rows 24-35): 3.0 m straight east.
+    occ = two_rooms(12)
+    settings = LatticeSettings.for_robot(BURGER)
+    first = lattice(occ, BURGER, centre(30, 10), centre(30, 70)[:2])
+    assert first.length_m == pytest.approx(3.0)
+    occ[24:36, 38:42] = 100
+    with pytest.raises(PlanningError, match="unreachable"):
+        plan_lattice(occ, RES, ORIGIN, BURGER, centre(30, 10), centre(30, 70)[:2], settings)
+    assert (footprint_costmap(occ, RES, BURGER, settings)[24:36, 38:42] == 254).all()
+    occ[24:36, 38:42] = 0
+    again = lattice(occ, BURGER, centre(30, 10), centre(30, 70)[:2])
+    assert again.cost == first.cost and np.array_equal(again.cells, first.cells)
+
+
+def test_cached_pieces_are_kept_apart_by_robot_and_settings():
+    # Three configurations (the cache keeps two of each, so one is always rebuilt) planned in
+    # one order, then in the reverse one: each plans the same path both times, and the three
+    # cost differently (turning 0.325 / 0.275 m per rad; graded costs from r_in + margin_m), so
+    # a cache that handed one configuration another's pieces would show.
+    occ = random_blocks(np.random.default_rng(3), 10)
+    free = roomy_cells(occ)
+    configs = [(WAFFLE, {}), (BURGER, {}), (WAFFLE, {"margin_m": 0.06})]
+
+    def plans(order, start, goal):
+        out = {}
+        for i in order:
+            robot, overrides = configs[i]
+            out[i] = plan_lattice(occ, RES, ORIGIN, robot, start, goal,
+                                  LatticeSettings.for_robot(robot, **overrides))
+        return out
+
+    start = centre(*free[0], yaw=0.0)
+    for cell in free[::-1]:        # the farthest goal that all three reach
+        goal = centre(*cell)[:2]
+        try:
+            forward = plans([0, 1, 2], start, goal)
+            break
+        except PlanningError:
+            continue
+    backward = plans([2, 1, 0, 2], start, goal)
+    for i in range(3):
+        assert backward[i].cost == forward[i].cost and np.array_equal(backward[i].cells, forward[i].cells)
+    costs = sorted(p.cost for p in forward.values())
+    assert costs[0] < costs[1] < costs[2]
+
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_a_long_detour_costs_what_the_exhaustive_search_finds(robot):
+    # Start and goal 2 m apart either side of a wall whose only opening (0.55 m, rows 1-11) lies
+    # 1.7 m below them: the heuristic's search from the goal, aimed at the start, must be resumed
+    # far outside the ellipse round the straight line, and stays exact there: the plan costs what
+    # the lattice Dijkstra without a heuristic (lattice_cost_to_come) finds, the robot starting
+    # at a lattice heading where it turns (see test_cost_to_come_is_the_least_plan_cost_...).
+    # Forward moves only: with backward ones the least-turning term is admissible but not
+    # consistent (lattice_search.hpp), and here the plan costs 1.1 cm (waffle_pi) and 0.8 cm
+    # (burger) more than the Dijkstra's, as it did before the heuristic's search was aimed.
+    occ = walled(60, 100)
+    occ[12:, 48:52] = 100
+    start, goal = centre(45, 30, yaw=0.0), centre(45, 70)[:2]
+    path = lattice(occ, robot, start, goal, reverse_speed_mps=0.0)
+    assert path.cells[:, 0].min() <= 11                   # it went through the opening
+    field = lattice_cost_to_come(occ, RES, ORIGIN, robot, start,
+                                 LatticeSettings.for_robot(robot, reverse_speed_mps=0.0))
+    assert field[45, 70] == pytest.approx(path.cost, rel=1e-6, abs=1e-5)
+
+
 # ---------------------------------------------------------------- endpoints
 
 def test_endpoint_errors_name_the_endpoint():

@@ -293,6 +293,32 @@ def test_drives_round_the_corner_of_corridors_narrower_than_its_turning_disc():
     assert len(turning) >= 5
 
 
+@pytest.mark.parametrize("planner", ["ompl_rrtconnect", "ompl_bitstar"])
+def test_an_ompl_planner_drives_the_box_round_the_corner(planner):
+    # The corridors of the test above, planned by OMPL (planner:=ompl_...) instead of the
+    # lattice: the path, any-angle, goes round the corner, the box turns in the corner room
+    # and never comes nearer than 5 mm to a wall.
+    occ = np.full((80, 60), 100, np.int8)
+    occ[10:19, 2:41] = 0
+    occ[10:75, 32:41] = 0
+    occ[6:22, 28:44] = 0
+    nav = Navigation(NavigationSettings(controller="pure_pursuit", planner=planner,
+                                        sampling_budget_s=0.3), WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(1.825, 3.4)
+    nav.step(0.0, (0.4, 0.725, 0.0), (0.0, 0.0))
+    assert nav.plan is not None and (nav.plan.headings == -1).all()   # OMPL's, not the lattice's
+    poses, _ = drive_robot(nav, WAFFLE, occ, (0.4, 0.725, 0.0), 60.0)
+    assert nav.status == "succeeded", nav.reason
+    assert math.hypot(poses[-1, 0] - 1.825, poses[-1, 1] - 3.4) <= 0.1 + 0.03
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+
+
+def test_an_unknown_planner_is_refused():
+    with pytest.raises(Exception, match="unknown planner 'rrt'"):
+        NavigationSettings(planner="rrt").validate("navigator")
+
+
 def test_a_goal_whose_turnable_cell_lies_beyond_a_thin_wall_is_reached_on_its_own_cell():
     # A 0.45 m corridor (y in [0.5, 0.95)) under a 0.05 m wall, a wide room above. The goal in
     # the corridor has no cell where the disc fits on its side; the nearest such cell (within

@@ -1,5 +1,5 @@
-"""Goal-to-velocity navigation core (ROS-free): a lattice plan for the robot's footprint,
-replanning, a path controller.
+"""Goal-to-velocity navigation core (ROS-free): a lattice plan for the robot's footprint (or
+an OMPL planner's, ``planner``: planning.sampling), replanning, a path controller.
 
 The navigator node feeds it maps, poses and time. It plans with the state lattice
 (``planning.lattice``: forward and backward moves whose swept box is clear, turns in place
@@ -33,6 +33,7 @@ from ..robot import RobotSpec
 from .costmap import INSCRIBED, PlanningError
 from .lattice import (ESCAPE_RADIUS_M, EscapeArc, LatticePath, LatticeSettings, escape_arcs,
                       footprint_clear, footprint_costmap, plan_lattice)
+from .sampling import GLOBAL_PLANNERS, as_lattice_path, plan_sampling
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,9 @@ class NavigationSettings:
                                          # that never changes): fail
     snap_radius_m: float = 0.5           # a start/goal where the footprint does not fit moves to
                                          # the nearest cell within this where it does
+    planner: str = "lattice"             # the global planner: lattice, or one of OMPL's
+                                         # (planning.sampling.GLOBAL_PLANNERS)
+    sampling_budget_s: float = 0.2       # an OMPL planner's solve time per plan (wall s)
     controller: str = DEFAULT_CONTROLLER  # which drives: a name of control.CONTROLLERS
     takeover_m: float = 0.5              # where the controller finds no free way (blocked), the
                                          # pure pursuit drives the plan this far (m), then hands
@@ -66,7 +70,10 @@ class NavigationSettings:
     tube_mppi: TubeMppiSettings = field(default_factory=TubeMppiSettings)
 
     def validate(self, src: str) -> None:
-        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m")
+        positive(src, self, "controller_rate_hz", "replan_period_s", "snap_radius_m",
+                 "sampling_budget_s")
+        require(self.planner in GLOBAL_PLANNERS, src, "planner",
+                f"unknown planner '{self.planner}'; choose one of {', '.join(GLOBAL_PLANNERS)}")
         require(self.takeover_m >= 0.0, src, "takeover_m", "must be >= 0")
         require(self.max_blocked_replans >= 1, src, "max_blocked_replans", "must be >= 1")
         require(self.controller in CONTROLLERS, src, "controller",
@@ -580,15 +587,25 @@ class Navigation:
         return sign * min(speed, to_go / max(1.0 / self.s.controller_rate_hz, 1e-3)), 0.0
 
     def _lattice(self, start: tuple, goal: tuple) -> LatticePath:
-        """The lattice plan start -> goal, at the goal's yaw if it is pursued and reachable."""
+        """The global plan start -> goal (the lattice's, or an OMPL planner's in the lattice's
+        form), at the goal's yaw if it is pursued and reachable."""
         m = self.map
-        args = (m.occupancy, m.resolution, m.origin, self.robot, start, goal[:2], self.lattice)
+        if self.s.planner != "lattice":
+            def plan(goal_yaw=None):
+                path = plan_sampling(m.occupancy, m.resolution, m.origin, self.robot, start,
+                                     (goal[0], goal[1], goal_yaw), self.s.planner[len("ompl_"):],
+                                     self.s.sampling_budget_s, self.lattice)
+                return as_lattice_path(path, m.resolution, m.origin)
+        else:
+            def plan(goal_yaw=None):
+                return plan_lattice(m.occupancy, m.resolution, m.origin, self.robot, start,
+                                    goal[:2], self.lattice, goal_yaw=goal_yaw)
         if self.goal_yaw is not None:
             try:
-                return plan_lattice(*args, goal_yaw=self.goal_yaw)
+                return plan(self.goal_yaw)
             except PlanningError:
                 self.goal_yaw = None       # not at that heading: at any
-        return plan_lattice(*args)
+        return plan()
 
     def _reaches(self, start: tuple, goal: tuple) -> bool:
         try:

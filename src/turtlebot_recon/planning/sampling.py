@@ -13,18 +13,20 @@ cell (0, 0)'s corner), as in ``planning.lattice``.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
-from .. import _native
+from .. import _native, geometry
 from ..mapping.map_io import OCCUPIED_THRESH
 from ..robot import RobotSpec, footprint_args
 from .costmap import PlanningError
-from .lattice import LatticeSettings
+from .lattice import LatticePath, LatticeSettings
 
 OMPL_PLANNERS = tuple(_native.sampling_planners())   # rrtconnect, rrtstar, informed_rrtstar, prmstar, bitstar
+GLOBAL_PLANNERS = ("lattice",) + tuple(f"ompl_{name}" for name in OMPL_PLANNERS)  # the navigator's
 
 
 @dataclass(frozen=True)
@@ -71,3 +73,31 @@ def plan_sampling(occupancy: np.ndarray, resolution: float, origin: Sequence[flo
     return SampledPath(poses=poses, reversed=out["reversed"], length_m=out["length_m"],
                        reversed_m=out["reversed_m"], turned_rad=out["turned_rad"],
                        cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
+
+
+def as_lattice_path(path: SampledPath, resolution: float, origin: Sequence[float]) -> LatticePath:
+    """``path`` in the lattice's form, for the navigator (which follows the runs between turns
+    and backs where a plan does): a pose at each turn in place (turned) and every cell or less
+    along each straight segment (reversed where it is driven backward); cells are those poses'
+    cells, headings -1 (off the lattice's)."""
+    P, back = path.poses, path.reversed
+    poses, turned, reversed_ = [P[0]], [False], [False]
+    for i in range(1, len(P)):
+        (x0, y0), (x1, y1) = P[i - 1, :2], P[i, :2]
+        d = math.hypot(x1 - x0, y1 - y0)
+        if d > 1e-9:
+            held = math.atan2(y1 - y0, x1 - x0) + (math.pi if back[i] else 0.0)
+            if abs(geometry.wrap_angle(held - poses[-1][2])) > 1e-9:
+                poses.append(np.array([x0, y0, held])), turned.append(True), reversed_.append(False)
+            n = max(1, math.ceil(d / resolution))
+            for t in np.arange(1, n + 1) / n:
+                poses.append(np.array([x0 + t * (x1 - x0), y0 + t * (y1 - y0), held]))
+                turned.append(False), reversed_.append(bool(back[i]))
+        if abs(geometry.wrap_angle(P[i, 2] - poses[-1][2])) > 1e-9:
+            poses.append(np.array([x1, y1, P[i, 2]])), turned.append(True), reversed_.append(False)
+    poses = np.array(poses)
+    rows, cols = geometry.points_to_cells(poses[:, :2], resolution, origin)
+    return LatticePath(poses=poses, cells=np.column_stack([rows, cols]).astype(np.int32),
+                       headings=np.full(len(poses), -1, np.int32), turned=np.array(turned),
+                       reversed=np.array(reversed_), cost=path.cost_m, length_m=path.length_m,
+                       turned_rad=path.turned_rad, reversed_m=path.reversed_m)

@@ -1,0 +1,142 @@
+"""The 3-D obstacle layer: settings and facade of the C++ ``_native.OctomapLayer`` (OctoMap).
+
+Point clouds (a depth camera's, perception.depth; a lidar's at its mounting height) go into
+an octomap::OcTree by OctoMap's ray casting; the occupied voxels between the floor band and
+the robot's top are projected onto the lidar grid's geometry as an int8 layer: 100 under such
+a voxel, -1 everywhere else. The layer holds obstacles only: a depth camera sees a column of
+space at some heights and not others, so "no voxel here" is never "free here".
+
+How it joins the 2-D map (``merge_obstacles``): a cell-wise maximum with the lidar grid
+(-1 unknown, 0..100). Under a 3-D obstacle the cell becomes 100, whatever the lidar said
+(its beams pass over a low box, under a shelf); everywhere else the lidar's value stays,
+unknown included. The costmap (planning.costmap.make_costmap) and the lattice
+(planning.lattice) read the merged grid as they read the lidar's, so both inflate and avoid
+the box like a wall. The layer is projected again from the tree each time, so an obstacle
+that the camera later sees gone (its voxels cleared by rays through them) leaves the map.
+
+Frames and units: points and origins in metres in the map frame, z up, the floor at z = 0.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from .. import _native
+from ..config import positive, require
+from ..robot import RobotSpec
+
+OBSTACLE = 100   # the layer's value under a 3-D obstacle (nav_msgs/OccupancyGrid's "occupied")
+
+
+@dataclass(frozen=True)
+class OctomapSettings:
+    """The OctoMap layer's parameters (config/octomap.yaml)."""
+    resolution_m: float = 0.05         # m, finest voxel edge (the lidar grid's cell: one voxel a cell)
+    max_range_m: float = 4.0           # m, points farther clear their ray up to here and mark
+                                       # nothing (the TurtleBot 2's Astra/Kinect reach, DESIGN §5)
+    max_point_z_m: float = 0.45        # m, higher points are not inserted (octomap_server's
+                                       # pointcloud_max_z): the free space of rays rising above
+                                       # the robot is most of a frame's cost (4 m range, 160 x
+                                       # 120: 83-99 ms of CPU without the limit, 17-24 ms with
+                                       # it) and none of the layer's concern; >= robot_height_m
+                                       # (the TurtleBot 2's 0.40 m and one voxel)
+    discretize: bool = True            # OctoMap's option: one ray per end voxel, not per point
+                                       # (the same voxels hit; fewer rays)
+    floor_band_m: float = 0.03         # m, voxels centred at or below this are the floor
+    robot_height_m: float = 0.0        # m, voxels centred above this pass over the robot;
+                                       # 0: the robot's body_height_m (with_robot)
+    depth_columns: int = 160           # px, a depth image is sampled every width // this pixels
+                                       # (640 x 480 → 160 x 120)
+    prob_hit: float = 0.7              # OctoMap's sensor model, its defaults: a point's end voxel
+    prob_miss: float = 0.4             # votes prob_hit, a crossed voxel prob_miss
+    clamping_thres_min: float = 0.1192  # a voxel never surer than this of free ...
+    clamping_thres_max: float = 0.971  # ... nor of occupied
+    occupancy_thres: float = 0.5       # occupied above this probability
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "resolution_m", "max_range_m", "max_point_z_m", "depth_columns")
+        require(math.isfinite(self.floor_band_m) and self.floor_band_m >= 0, src, "floor_band_m",
+                f"must be >= 0, got {self.floor_band_m!r}")
+        require(math.isfinite(self.robot_height_m) and self.robot_height_m >= 0, src, "robot_height_m",
+                f"must be >= 0 (0: the robot's body height), got {self.robot_height_m!r}")
+        require(self.robot_height_m == 0 or self.robot_height_m > self.floor_band_m, src, "robot_height_m",
+                f"must be above floor_band_m ({self.floor_band_m}), got {self.robot_height_m}")
+        require(0.5 < self.prob_hit < 1.0, src, "prob_hit", f"must be in (0.5, 1), got {self.prob_hit}")
+        require(0.0 < self.prob_miss < 0.5, src, "prob_miss", f"must be in (0, 0.5), got {self.prob_miss}")
+        require(0.0 < self.clamping_thres_min < self.occupancy_thres < self.clamping_thres_max < 1.0,
+                src, "occupancy_thres", "need 0 < clamping_thres_min < occupancy_thres < "
+                f"clamping_thres_max < 1, got {self.clamping_thres_min}, {self.occupancy_thres}, "
+                f"{self.clamping_thres_max}")
+
+    def with_robot(self, robot: RobotSpec) -> "OctomapSettings":
+        """These settings with robot_height_m left 0 taken from ``robot``'s body height."""
+        return replace(self, robot_height_m=self.robot_height_m or robot.body_height_m)
+
+
+class OctomapLayer:
+    """An OcTree filled from point clouds and projected onto 2-D grids (``settings`` with the
+    robot's height resolved: ``OctomapSettings.with_robot``)."""
+
+    def __init__(self, settings: OctomapSettings):
+        if settings.robot_height_m <= settings.floor_band_m:
+            raise ValueError(f"OctomapLayer: robot_height_m ({settings.robot_height_m} m) must be above "
+                             f"floor_band_m ({settings.floor_band_m} m); 0 is resolved by with_robot")
+        if settings.max_point_z_m < settings.robot_height_m:
+            raise ValueError(f"OctomapLayer: max_point_z_m ({settings.max_point_z_m} m) must be at least "
+                             f"robot_height_m ({settings.robot_height_m} m): the band up to the robot's "
+                             "top must be seen")
+        self.settings = settings
+        self.tree = _native.OctomapLayer(
+            resolution=settings.resolution_m, prob_hit=settings.prob_hit, prob_miss=settings.prob_miss,
+            clamping_thres_min=settings.clamping_thres_min, clamping_thres_max=settings.clamping_thres_max,
+            occupancy_thres=settings.occupancy_thres)
+
+    def insert(self, points: np.ndarray, origin) -> _native.CloudStats:
+        """Ray-cast ``points`` (n, 3) m, map frame, from the sensor ``origin`` (x, y, z) m. NaN
+        and inf points, and points above max_point_z_m, are skipped and counted; an empty
+        cloud changes nothing."""
+        x, y, z = (float(v) for v in origin)
+        s = self.settings
+        return self.tree.insert_point_cloud(np.asarray(points, np.float32), x, y, z, s.max_range_m,
+                                            s.max_point_z_m, s.discretize)
+
+    def project(self, rows: int, cols: int, resolution: float, origin) -> np.ndarray:
+        """int8 (rows, cols) on a grid's geometry (row 0 at the smallest y; ``origin`` the (x, y)
+        m of cell (0, 0)'s lower-left corner): OBSTACLE under an occupied voxel centred in
+        (floor_band_m, robot_height_m], else -1."""
+        s = self.settings
+        return self.tree.project(rows=rows, cols=cols, resolution=resolution, origin_x=float(origin[0]),
+                                 origin_y=float(origin[1]), floor_band_m=s.floor_band_m,
+                                 robot_height_m=s.robot_height_m)
+
+    def occupied_voxels(self) -> tuple:
+        """(centres (n, 3) m, sizes (n,) m) of every occupied leaf: the markers' cubes."""
+        return self.tree.occupied_voxels()
+
+    def save(self, path: str | Path) -> None:
+        """The tree as an OctoMap .bt file (octovis, octomap_server read it)."""
+        self.tree.write_bt(str(path))
+
+    def load(self, path: str | Path) -> None:
+        """The tree of a .bt file replaces this one (its resolution too)."""
+        self.tree.read_bt(str(path))
+
+    @property
+    def memory_bytes(self) -> int:
+        return self.tree.memory_bytes
+
+    @property
+    def leaf_count(self) -> int:
+        return self.tree.leaf_count
+
+
+def merge_obstacles(occupancy: np.ndarray, layer: np.ndarray) -> np.ndarray:
+    """The lidar grid (int8 -1 / 0..100) with the layer's obstacles added: the cell-wise maximum
+    (the layer's -1 changes nothing, its OBSTACLE always wins). Same shapes required."""
+    if occupancy.shape != layer.shape:
+        raise ValueError(f"merge_obstacles: the layer's shape {layer.shape} is not the grid's "
+                         f"{occupancy.shape}")
+    return np.maximum(occupancy, layer)
