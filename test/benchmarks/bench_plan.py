@@ -41,8 +41,10 @@ cost, so its cost is its driven length (16 headings: an any-angle path can be up
 Output: output/bench/plan.json: ``<figure>_<planner>`` keys, the issue's headline keys
 ``min_success_rate`` (over lattice, astar_shortcut and every OMPL planner at tier 0_2s; seed
 003's RRT and tier 0_05s apart), ``best_ompl_length_ratio_0_2s``, ``astar_shortcut_length_ratio``,
-``lattice_p95_ms_real_maps``; per world and per robot under ``worlds`` and ``robots``; every
-call in output/bench/plan_runs.jsonl. Runs one call at a time (the budgets are wall time).
+``lattice_p95_ms_real_maps``; per world and per robot under ``worlds`` and ``robots``; the
+OctoMap layer's ``octomap_*`` figures (octomap_figures.py: ``octomap_insert_ms`` per 160 x 120
+depth frame, ``octomap_mb_per_100m2``); every call in output/bench/plan_runs.jsonl. Runs one
+call at a time (the budgets are wall time).
 """
 from __future__ import annotations
 
@@ -59,6 +61,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import REAL_MAPS, SHARED_WORLDS, TOP, write  # noqa: E402
+from octomap_figures import octomap_figures  # noqa: E402
 
 from turtlebot_recon import _native, geometry  # noqa: E402
 from turtlebot_recon.config import from_dict, load_yaml  # noqa: E402
@@ -404,6 +407,7 @@ def main() -> int:
                       + (f" ({', '.join(f'{k} {bad.count(k)}' for k in dict.fromkeys(bad))})" if bad else ""),
                       flush=True)
     figures = summarise(rows, real)
+    figures.update(octomap_figures())   # the OctoMap layer's (issue 33): per depth frame, per area
     figures.update(pairs_per_world=args.pairs, seed=args.seed, worlds_run=[w.name for w in loaded],
                    robots_run=[r.name for r in robots], wall_s=round(time.monotonic() - t_start, 1))
     print_table(figures)
