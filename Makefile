@@ -9,7 +9,7 @@ APT_STAMP  := build/.apt-stamp
 VENV_STAMP := $(VENV)/.stamp
 ENV    := source $(TOP)/tools/env.sh &&
 
-# Options for run / wander / sim: WORLD ROBOT STRATEGY CONTROLLER PLANNER MISSION SLAM RTF SEED BUDGET
+# Options for run / wander / sim: WORLD ROBOT STRATEGY CONTROLLER PLANNER OCTOMAP MISSION SLAM RTF SEED BUDGET
 # DURATION RVIZ SAVED_MAP are the launch files' arguments, passed only when the user sets them
 # (make VAR=value, or the environment): their defaults live in the launch files and config/*.yaml.
 # on purpose: make's own run directory, inside the checkout (the launch files' is under ROS_HOME)
@@ -17,7 +17,7 @@ OUTPUT   ?= output/run
 # name:=$(VAR) when the user set VAR, else nothing: $(call arg,VAR,name)
 arg = $(if $(filter command line environment,$(origin $(1))),$(2):=$($(1)))
 RUN_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,STRATEGY,strategy) \
-  $(call arg,CONTROLLER,controller) $(call arg,PLANNER,planner) $(call arg,MISSION,mission) $(call arg,SLAM,slam) $(call arg,RTF,rtf) \
+  $(call arg,CONTROLLER,controller) $(call arg,PLANNER,planner) $(call arg,OCTOMAP,octomap) $(call arg,MISSION,mission) $(call arg,SLAM,slam) $(call arg,RTF,rtf) \
   $(call arg,SEED,seed) $(call arg,BUDGET,budget) $(call arg,RVIZ,rviz))
 WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,RTF,rtf) $(call arg,SEED,seed) \
   $(call arg,DURATION,duration) $(call arg,RVIZ,rviz))
@@ -27,7 +27,7 @@ WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         explore a world headless; map, plots and report in OUTPUT=$(OUTPUT)"
-	@echo "                 (WORLD ROBOT STRATEGY CONTROLLER PLANNER MISSION SLAM RTF SEED BUDGET RVIZ SAVED_MAP: the arguments"
+	@echo "                 (WORLD ROBOT STRATEGY CONTROLLER PLANNER OCTOMAP MISSION SLAM RTF SEED BUDGET RVIZ SAVED_MAP: the arguments"
 	@echo "                 of launch/explore_sim.launch, which names the choices; unset: its and config/*.yaml's defaults)"
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration; WORLD ROBOT RTF SEED"
 	@echo "                 DURATION RVIZ: launch/run_sim.launch's arguments)"
