@@ -47,7 +47,8 @@ help:
 	@echo "                 maps) over 30 reachable start/goal pairs per world and robot, every shipped world, depot and"
 	@echo "                 tb3_sandbox -> output/bench/plan.json"
 	@echo "                 (WORLDS=house,../shared/worlds/depot.yaml PAIRS=N PLANNERS=lattice,astar_shortcut,rrt_seed003,ompl"
-	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N)"
+	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N; EXPLORE_3D=0: without the 3-D check, a TurtleBot 2 exploring"
+	@echo "                 the house with low furniture, OctoMap layer on and off)"
 	@echo "make bench-explore  recon and the oracle x worlds x 3 seeds, 2 at a time (<= 1 h) -> output/bench/explore.json,"
 	@echo "                 plots in output/bench/explore/, a copy in docs/results/ to commit; held-out rows (garden, doors,"
 	@echo "                 cluttered with the burger and the waffle_pi: 1 seed) reported apart (heldout_*)"
@@ -129,7 +130,8 @@ bench-nav: build
 # PLANNERS=a,b ROBOTS=a,b SEED=N.
 bench-plan: build
 	@$(ENV) python test/benchmarks/bench_plan.py $(if $(WORLDS),--worlds $(WORLDS)) $(if $(PAIRS),--pairs $(PAIRS)) \
-	  $(if $(PLANNERS),--planners $(PLANNERS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(SEED),--seed $(SEED))
+	  $(if $(PLANNERS),--planners $(PLANNERS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(SEED),--seed $(SEED)) \
+	  $(if $(EXPLORE_3D),--explore-3d $(EXPLORE_3D))
 
 # Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
 # detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).
