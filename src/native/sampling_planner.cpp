@@ -390,10 +390,6 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The path as a follower drives it: straight segments, forward where that is clear, else
-// backward; each inner vertex's yaw the heading held on the segment into it, so that the
-// turn there goes straight from one heading to the next. Fills `out`'s path and figures;
-// false when such a turn (or anything else) is not clear.
 // How the follower reaches `to` from `from`: a turn in place to face it, a straight drive
 // (forward, else backward where the robot may back), and, for the path's `last` pose, a turn to
 // its yaw; an inner pose is reached at the heading held on the way (the next segment turns).
@@ -423,8 +419,10 @@ void append(const TurnDriveModel& model, const Pose& end, Drive drive, SampledPa
   out.reversed.push_back(backward);
 }
 
-// The path the follower drives through `path`'s vertices, into `out`; false where a step of it
-// is not clear.
+// The path as a follower drives it through `path`'s vertices: straight segments, forward where
+// that is clear, else backward; each inner vertex's yaw the heading held on the segment into
+// it, so that the turn there goes straight from one heading to the next. Fills `out`'s path
+// and figures; false when such a turn (or anything else) is not clear.
 bool follow(const TurnDriveModel& model, const og::PathGeometric& path, SampledPath& out) {
   std::vector<Pose> poses;
   for (std::size_t i = 0; i < path.getStateCount(); ++i) {
