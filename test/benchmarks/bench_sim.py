@@ -73,16 +73,23 @@ def core_rtf(world: str, robot: str, camera_hz: float, sim_s: float = 60.0) -> f
 FRAMES = 30
 
 
-def _median_ms(fn, frames: int = FRAMES, turn=None) -> float:
+def _median_ms(fn, frames: int = FRAMES, turn=None) -> tuple:
+    """(wall ms, CPU ms) of one call of ``fn``, medians over ``frames`` calls. The CPU time is
+    the process's, all threads (llvmpipe renders on several): steadier on a shared machine."""
     fn()                                          # the first frame (EGL: context, shaders) apart
-    times = []
+    wall, cpu = [], []
     for _ in range(frames):
         if turn is not None:
             turn()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(times))
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    return 1e3 * float(np.median(wall)), 1e3 * float(np.median(cpu))
+
+
+def _put(out: dict, name: str, ms: tuple) -> None:
+    out[f"render_ms_{name}"], out[f"render_cpu_ms_{name}"] = ms
 
 
 def render_ms() -> dict:
@@ -96,19 +103,19 @@ def render_ms() -> dict:
             robot = dataclasses.replace(tb2, camera=dataclasses.replace(tb2.camera, width_px=w, height_px=h),
                                         depth_camera=None)
             sim = Simulator(world, robot, SimSettings(camera_rate_hz=5.0, depth_rate_hz=0.0, camera_renderer=renderer))
-            out[f"render_ms_rgb_{w}x{h}_{renderer}"] = _median_ms(sim.render_camera, turn=lambda: _turn(sim))
+            _put(out, f"rgb_{w}x{h}_{renderer}", _median_ms(sim.render_camera, turn=lambda: _turn(sim)))
             sim.close()
         sim = Simulator(world, tb2, SimSettings(camera_rate_hz=5.0, depth_rate_hz=2.5, camera_renderer=renderer))
-        out[f"render_ms_rgb_and_depth_640x480_{renderer}"] = _median_ms(lambda: sim.render_views(True, True),
-                                                                         turn=lambda: _turn(sim))
+        _put(out, f"rgb_and_depth_640x480_{renderer}", _median_ms(lambda: sim.render_views(True, True),
+                                                                  turn=lambda: _turn(sim)))
         sim.close()
     sim = Simulator(world, tb2, SimSettings(camera_rate_hz=0.0, depth_rate_hz=2.5))   # depth alone: tiny
     dep = tb2.depth_camera
-    out[f"render_ms_depth_{dep.width_px}x{dep.height_px}_alone"] = _median_ms(lambda: sim.render_views(False, True),
-                                                                               turn=lambda: _turn(sim))
+    _put(out, f"depth_{dep.width_px}x{dep.height_px}_alone", _median_ms(lambda: sim.render_views(False, True),
+                                                                        turn=lambda: _turn(sim)))
     depth = sim.render_views(False, True)[1]
     cloud = DepthCamera(sim.depth_matrix(), dep.width_px, dep.height_px, SimSettings().depth_points_stride_px)
-    out["depth_messages_ms"] = _median_ms(lambda: (
+    out["depth_messages_ms"], _ = _median_ms(lambda: (
         convert.image_32fc1(depth, dep.optical_frame_id, 0.0),
         convert.point_cloud_xyz(cloud.optical_points(depth), *cloud.shape, dep.optical_frame_id, 0.0)))
     sim.close()
