@@ -9,7 +9,7 @@ APT_STAMP  := build/.apt-stamp
 VENV_STAMP := $(VENV)/.stamp
 ENV    := source $(TOP)/tools/env.sh &&
 
-# Options for run / wander / sim: WORLD ROBOT STRATEGY CONTROLLER PLANNER MISSION SLAM RTF SEED BUDGET
+# Options for run / wander / sim: WORLD ROBOT STRATEGY CONTROLLER PLANNER OCTOMAP MISSION SLAM RTF SEED BUDGET
 # DURATION RVIZ SAVED_MAP are the launch files' arguments, passed only when the user sets them
 # (make VAR=value, or the environment): their defaults live in the launch files and config/*.yaml.
 # on purpose: make's own run directory, inside the checkout (the launch files' is under ROS_HOME)
@@ -17,7 +17,7 @@ OUTPUT   ?= output/run
 # name:=$(VAR) when the user set VAR, else nothing: $(call arg,VAR,name)
 arg = $(if $(filter command line environment,$(origin $(1))),$(2):=$($(1)))
 RUN_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,STRATEGY,strategy) \
-  $(call arg,CONTROLLER,controller) $(call arg,PLANNER,planner) $(call arg,MISSION,mission) $(call arg,SLAM,slam) $(call arg,RTF,rtf) \
+  $(call arg,CONTROLLER,controller) $(call arg,PLANNER,planner) $(call arg,OCTOMAP,octomap) $(call arg,MISSION,mission) $(call arg,SLAM,slam) $(call arg,RTF,rtf) \
   $(call arg,SEED,seed) $(call arg,BUDGET,budget) $(call arg,RVIZ,rviz))
 WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,RTF,rtf) $(call arg,SEED,seed) \
   $(call arg,DURATION,duration) $(call arg,RVIZ,rviz))
@@ -27,7 +27,7 @@ WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
 	@echo "make run         explore a world headless; map, plots and report in OUTPUT=$(OUTPUT)"
-	@echo "                 (WORLD ROBOT STRATEGY CONTROLLER PLANNER MISSION SLAM RTF SEED BUDGET RVIZ SAVED_MAP: the arguments"
+	@echo "                 (WORLD ROBOT STRATEGY CONTROLLER PLANNER OCTOMAP MISSION SLAM RTF SEED BUDGET RVIZ SAVED_MAP: the arguments"
 	@echo "                 of launch/explore_sim.launch, which names the choices; unset: its and config/*.yaml's defaults)"
 	@echo "make wander      the simulator with a scripted wander and the mapper (no exploration; WORLD ROBOT RTF SEED"
 	@echo "                 DURATION RVIZ: launch/run_sim.launch's arguments)"
@@ -35,7 +35,8 @@ help:
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
 	@echo "                 (MAP=map.yaml [INITIAL_POSE='x y yaw']: track the log in that saved map instead)"
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
-	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM -> output/bench/slam.json"
+	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM, tag missions"
+	@echo "                 with SLAM, tags landmarks in the graph or not -> output/bench/slam.json"
 	@echo "                 (LIVE=0 offline parts only, SEEDS=N, RESUME=1, DRIVE_S=sim s per recorded drive)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
@@ -47,7 +48,8 @@ help:
 	@echo "                 maps) over 30 reachable start/goal pairs per world and robot, every shipped world, depot and"
 	@echo "                 tb3_sandbox -> output/bench/plan.json"
 	@echo "                 (WORLDS=house,../shared/worlds/depot.yaml PAIRS=N PLANNERS=lattice,astar_shortcut,rrt_seed003,ompl"
-	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N)"
+	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N; EXPLORE_3D=0: without the 3-D check, a TurtleBot 2 exploring"
+	@echo "                 the house with low furniture, OctoMap layer on and off)"
 	@echo "make bench-explore  recon and the oracle x worlds x 3 seeds, 2 at a time (<= 1 h) -> output/bench/explore.json,"
 	@echo "                 plots in output/bench/explore/, a copy in docs/results/ to commit; held-out rows (garden, doors,"
 	@echo "                 cluttered with the burger and the waffle_pi: 1 seed) reported apart (heldout_*)"
@@ -129,7 +131,8 @@ bench-nav: build
 # PLANNERS=a,b ROBOTS=a,b SEED=N.
 bench-plan: build
 	@$(ENV) python test/benchmarks/bench_plan.py $(if $(WORLDS),--worlds $(WORLDS)) $(if $(PAIRS),--pairs $(PAIRS)) \
-	  $(if $(PLANNERS),--planners $(PLANNERS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(SEED),--seed $(SEED))
+	  $(if $(PLANNERS),--planners $(PLANNERS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(SEED),--seed $(SEED)) \
+	  $(if $(EXPLORE_3D),--explore-3d $(EXPLORE_3D))
 
 # Detection on the same frames for both back-ends, then the tag missions (QUICK=1: the
 # detection table only; WORLDS=..., SEEDS=N, RESUME=1 for the missions).

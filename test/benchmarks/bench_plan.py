@@ -43,8 +43,11 @@ Output: output/bench/plan.json: ``<figure>_<planner>`` keys, the issue's headlin
 003's RRT and tier 0_05s apart), ``best_ompl_length_ratio_0_2s``, ``astar_shortcut_length_ratio``,
 ``lattice_p95_ms_real_maps``; per world and per robot under ``worlds`` and ``robots``; the
 OctoMap layer's ``octomap_*`` figures (octomap_figures.py: ``octomap_insert_ms`` per 160 x 120
-depth frame, ``octomap_mb_per_100m2``); every call in output/bench/plan_runs.jsonl. Runs one
-call at a time (the budgets are wall time).
+depth frame, ``octomap_mb_per_100m2``); the 3-D check's (explore_3d.py, after the planners:
+``collisions_octomap_on`` / ``_off``, ``coverage_octomap_on`` / ``_off``: a TurtleBot 2 explores
+the house with low furniture with the OctoMap layer on and off, two launches side by side);
+every call in output/bench/plan_runs.jsonl. Runs one planner call at a time (the budgets are
+wall time).
 """
 from __future__ import annotations
 
@@ -61,6 +64,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import REAL_MAPS, SHARED_WORLDS, TOP, write  # noqa: E402
+from explore_3d import explore_3d  # noqa: E402
 from octomap_figures import octomap_figures  # noqa: E402
 
 from turtlebot_recon import _native, geometry  # noqa: E402
@@ -358,6 +362,8 @@ def main() -> int:
     ap.add_argument("--planners", default=",".join(BASE_PLANNERS + ("ompl",)),
                     help=f"of {', '.join(BASE_PLANNERS)}, ompl (all of OMPL_PLANNERS) or single OMPL planners")
     ap.add_argument("--seed", type=int, default=SEED)
+    ap.add_argument("--explore-3d", type=int, default=1, help="1: the 3-D check too (explore_3d.py: a TurtleBot 2 "
+                    "explores the house with low furniture, the OctoMap layer on and off, side by side); 0: not")
     args = ap.parse_args()
     planners = []
     for p in (p for p in args.planners.split(",") if p):
@@ -408,6 +414,10 @@ def main() -> int:
                       flush=True)
     figures = summarise(rows, real)
     figures.update(octomap_figures())   # the OctoMap layer's (issue 33): per depth frame, per area
+    if args.explore_3d:
+        print("bench-plan: the 3-D check (explore_3d.py): a TurtleBot 2 explores the house with low furniture, "
+              "the OctoMap layer on and off, side by side", flush=True)
+        figures.update(explore_3d())
     figures.update(pairs_per_world=args.pairs, seed=args.seed, worlds_run=[w.name for w in loaded],
                    robots_run=[r.name for r in robots], wall_s=round(time.monotonic() - t_start, 1))
     print_table(figures)

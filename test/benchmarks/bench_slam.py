@@ -16,12 +16,20 @@
    three worlds with the burger at the default drift, odometry alone (``slam:=false``) and
    with SLAM (``slam:=true``), as `make bench-explore` runs them (runs in
    output/bench/slam_runs_odom/ and slam_runs_slam/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
-   map precision, coverage, collisions and the full stack's real-time factor.
+   map precision, coverage, collisions and the full stack's real-time factor. Then the
+   waffle_pi's tag missions (``mission:=tags``) with SLAM on house and office, the tags
+   landmarks in SLAM's graph (``tag_landmarks:=true``, the default with SLAM: /tags at the
+   graph's positions) and not (the tracker's own estimates), two at a time (runs in
+   output/bench/slam_runs_tags_landmarks/ and slam_runs_tags_no_landmarks/): the tag errors
+   with and without landmarks and the graph's landmarks (slam/landmarks) against the truth.
 
 Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst world),
 ``ate_ratio_odom_over_slam_min``, ``map_precision_min``, ``isam2_ms_median``/``_p99``/``_max``
 (the largest run), ``scan_match_ms_median``, ``memory_mb_per_1000_keyframes``,
-``city10000_ms_median``, ``city10000_max_error_m``, ``full_stack_rtf_slam``.
+``city10000_ms_median``, ``city10000_max_error_m``, ``full_stack_rtf_slam``; issue 31 item 6:
+``tag_error_median_m_slam`` (the median over the landmark runs of each run's median tag error;
+``_max`` the worst run), ``tag_error_median_m_slam_no_landmarks``, ``landmark_error_median_m``
+(slam/landmarks in x-y against the world's tags), ``tag_recall_min_slam``, ``false_tags_slam``.
 """
 import argparse
 import json
@@ -52,6 +60,8 @@ WORLDS = ("house", "office", "maze")
 ROBOT = "turtlebot3_burger"
 DRIFTS = {"low": 0.005, "default": 0.01, "3x": 0.03, "12pct": 0.17}
 SWEEP = "slam_runs"
+TAG_WORLDS = ("house", "office")     # the tags missions with SLAM (issue 31 item 6)
+TAG_ROBOT = "turtlebot3_waffle_pi"   # the TurtleBot 3 with a camera
 
 
 def rss_mb() -> float:
@@ -123,33 +133,52 @@ def recorded(drive_s: float, seed: int) -> dict:
     return out
 
 
-def live(seeds: int, resume: bool, budget: float) -> dict:
+RUN_KEYS = ("coverage_final", "coverage_aligned_final", "map_alignment", "time_to_99_s", "ate_m", "ate_odometry_m",
+            "map_precision_occupied", "map_precision_free", "collisions", "rtf", "finished_reason")
+TAG_KEYS = ("tags_placed", "tags_confirmed", "tag_recall", "tag_error_median_m", "tag_error_max_m", "false_tags",
+            "landmarks", "landmark_error_median_m", "landmark_error_max_m", "false_landmarks")
+
+
+def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resume: bool, budget: float,
+                 jobs: int) -> dict:
+    """bench_explore's runs of recon on ``worlds`` for each mode (name -> launch arguments), as
+    `make bench-explore` runs them (sweeps ``slam_runs_<mode>``); "mode/world/seedN" -> the
+    report's RUN_KEYS (and TAG_KEYS on a tags mission) and the keyframe ATE, or "no report"."""
     import bench_explore
     out = {}
-    for mode, args in (("odom", "slam:=false odom_slip:=0.01"), ("slam", "slam:=true odom_slip:=0.01")):
+    for mode, args in modes.items():
         name = f"{SWEEP}_{mode}"
-        argv = ["--strategies", "recon", "--worlds", ",".join(WORLDS), "--seeds", str(seeds), "--robot", ROBOT,
-                "--jobs", "1", "--name", name, "--mission", "map", "--launch-args", args]
+        argv = ["--strategies", "recon", "--worlds", ",".join(worlds), "--seeds", str(seeds), "--robot", robot,
+                "--jobs", str(jobs), "--name", name, "--mission", mission, "--launch-args", args]
         argv += ["--budget", f"{budget:g}"] if budget else []
         argv += ["--resume"] if resume else []
         bench_explore.main(argv)
         (bench_explore.BENCH_DIR / f"{name}.json").unlink(missing_ok=True)
-        for w in WORLDS:
+        for w in worlds:
             for n in range(seeds):
                 d = bench_explore.BENCH_DIR / name / w / "recon" / f"seed{n}"
                 if not (d / "report.json").exists():
                     out[f"{mode}/{w}/seed{n}"] = "no report"
                     continue
                 r = json.loads((d / "report.json").read_text())
-                row = {k: r.get(k) for k in ("coverage_final", "coverage_aligned_final", "map_alignment",
-                                             "time_to_99_s", "ate_m", "ate_odometry_m",
-                                             "map_precision_occupied",
-                                             "map_precision_free", "collisions", "rtf", "finished_reason")}
+                row = {k: r.get(k) for k in RUN_KEYS + (TAG_KEYS if mission == "tags" else ())}
                 if (d / "trajectory.tum").exists() and (d / "ground_truth.tum").exists():
                     row["keyframe_ate_m"] = ate(read_tum(d / "trajectory.tum"), read_tum(d / "ground_truth.tum"),
                                                 0.06).rmse_m
                 out[f"{mode}/{w}/seed{n}"] = row
     return out
+
+
+def live(seeds: int, resume: bool, budget: float) -> dict:
+    """The burger's map explorations, odometry alone and with SLAM, one at a time; then the
+    waffle_pi's tag missions with SLAM (TAG_WORLDS), its tags landmarks in the graph and not,
+    two at a time."""
+    runs = explorations({"odom": "slam:=false odom_slip:=0.01", "slam": "slam:=true odom_slip:=0.01"},
+                        WORLDS, ROBOT, "map", seeds, resume, budget, jobs=1)
+    runs.update(explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
+                              "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
+                             TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs=2))
+    return runs
 
 
 def summary(rec: dict, city: dict, runs: dict) -> dict:
@@ -178,6 +207,27 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
     fig["memory_mb_per_1000_keyframes"] = 1000.0 * largest["rss_growth_mb"] / max(largest["keyframes"], 1)
     fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in drives.values())
     fig.update({k: v for k, v in city.items() if k.startswith("city10000_")})
+    tags_on = [v for k, v in runs.items() if k.startswith("tags_landmarks/") and isinstance(v, dict)]
+    tags_off = [v for k, v in runs.items() if k.startswith("tags_no_landmarks/") and isinstance(v, dict)]
+
+    def median_of(rows, key):
+        values = [v[key] for v in rows if v.get(key) is not None]
+        return statistics.median(values) if values else None
+
+    if tags_on:
+        # each run's median tag error (DESIGN §6), then the median over runs; and the worst run
+        fig["tag_error_median_m_slam"] = median_of(tags_on, "tag_error_median_m")
+        fig["tag_error_median_m_slam_max"] = max((v["tag_error_median_m"] for v in tags_on
+                                                  if v.get("tag_error_median_m") is not None), default=None)
+        fig["landmark_error_median_m"] = median_of(tags_on, "landmark_error_median_m")
+        fig["tag_recall_min_slam"] = min((v["tag_recall"] or 0.0) for v in tags_on)
+        fig["false_tags_slam"] = sum(v["false_tags"] or 0 for v in tags_on)
+        fig["ate_m_tags_slam_max"] = max((v["ate_m"] for v in tags_on if v.get("ate_m") is not None), default=None)
+    if tags_off:
+        fig["tag_error_median_m_slam_no_landmarks"] = median_of(tags_off, "tag_error_median_m")
+        fig["tag_recall_min_slam_no_landmarks"] = min((v["tag_recall"] or 0.0) for v in tags_off)
+        fig["ate_m_tags_slam_no_landmarks_max"] = max((v["ate_m"] for v in tags_off if v.get("ate_m") is not None),
+                                                      default=None)
     slam = [v for k, v in runs.items() if k.startswith("slam/") and isinstance(v, dict)]
     odom = [v for k, v in runs.items() if k.startswith("odom/") and isinstance(v, dict)]
     if slam:

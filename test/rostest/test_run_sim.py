@@ -61,7 +61,8 @@ def test_bad_arguments_are_refused_before_any_node_starts(tmp_path):
              (f"world:={bad_world}", f"WORLD={bad_world} refused", "nowhere.pgm"),
              ("robot:=turtlebot4", "ROBOT=turtlebot4 refused", "turtlebot3_burger"),
              ("strategy:=recn", "STRATEGY=recn refused", "explore_lite"),
-             ("planner:=rrt", "PLANNER=rrt refused", "ompl_rrtconnect")]
+             ("planner:=rrt", "PLANNER=rrt refused", "ompl_rrtconnect"),
+             ("octomap:=yes", "OCTOMAP=yes refused", "true or false")]
     for arg, refusal, choice in cases:
         proc = launch("--done", "evaluator", "explore_sim.launch", arg, port="11478", timeout=60)
         lines = proc.stdout.strip().splitlines()

@@ -32,6 +32,7 @@ from conftest import room, walled_room, write_world
 from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.mapping.map_io import load_map_as, save_map
 from turtlebot_recon.mapping.mapper import Mapper, MapperSettings
+from turtlebot_recon.perception.depth import DepthCamera, depth_metres
 from turtlebot_recon.perception.detector import DetectorSettings, TagDetector
 from turtlebot_recon.perception.families import dictionary
 from turtlebot_recon.perception.image import ImageError, camera_model, compressed_to_gray, raw_to_gray
@@ -524,6 +525,60 @@ DETECTS = "the next good frame detected (tag 7)"
 WORLD_OK = "the good world beside it loads"
 SAVED_OK = "the file untouched; a good saved map loads"
 
+
+# ------------------------------------------------------------------ mapper's OctoMap layer: depth frames
+DW, DH = 160, 120                                       # px, a depth camera sampled at stride 1
+K_DEPTH = [100.0, 0.0, 79.5, 0.0, 100.0, 59.5, 0.0, 0.0, 1.0]
+OPTICAL = np.array([[0.0, 0.0, 1.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.2], [0, 0, 0, 1.0]])
+# the optical frame 0.2 m up, looking along +x (REP 103: z forward, x right, y down)
+
+
+def depth_wall(encoding="32FC1") -> bytes:
+    """A wall 2 m ahead filling the frame, as the bytes of a 32FC1 (m) or 16UC1 (mm) image."""
+    if encoding == "16UC1":
+        return np.full((DH, DW), 2000, np.uint16).tobytes()
+    return np.full((DH, DW), 2.0, np.float32).tobytes()
+
+
+def depth_layer(bad: Callable) -> str:
+    """The mapper's depth path (depth_metres, DepthCamera.points, OctomapLayer.insert) has
+    inserted a good frame of a wall 2 m ahead; ``bad()`` (given the camera and the layer) feeds
+    one bad frame and returns its line; the wall stays an obstacle, nothing else became one, and
+    the next good frame goes in."""
+    from turtlebot_recon.mapping.octomap_layer import OctomapLayer, OctomapSettings
+    layer = OctomapLayer(OctomapSettings(robot_height_m=0.4))
+    camera = DepthCamera(K_DEPTH, DW, DH, 1)
+
+    def insert(encoding="32FC1", data=None):
+        depth = depth_metres(encoding, DH, DW, DW * (2 if encoding == "16UC1" else 4),
+                             depth_wall(encoding) if data is None else data)
+        return layer.insert(camera.points(depth, OPTICAL), OPTICAL[:3, 3])
+
+    insert()
+    before = layer.project(100, 100, 0.05, (-2.5, -2.5))
+    try:
+        line = bad(camera, layer, insert)
+    except ImageError as exc:
+        line = str(exc)
+    after = layer.project(100, 100, 0.05, (-2.5, -2.5))
+    wall = after[50, 90]                                    # (2.0..2.05, 0): the wall's cell
+    assert wall == 100 and ((after == 100) <= (before == 100) | (np.arange(100) >= 90)[None, :]).all()
+    assert insert("16UC1").inserted > 0 and layer.project(100, 100, 0.05, (-2.5, -2.5))[50, 90] == 100
+    return line
+
+
+def depth_holes(_camera, _layer, insert) -> str:
+    """NaN pixels (32FC1) and 0 pixels (16UC1) are "no return": skipped and counted, no line."""
+    holes = np.full((DH, DW), 2.0, np.float32)
+    holes[:, ::2] = np.nan
+    stats = insert("32FC1", holes.tobytes())
+    assert stats.non_finite == DH * DW // 2 and stats.inserted > 0
+    zeros = np.full((DH, DW), 2000, np.uint16)
+    zeros[::2, :] = 0
+    stats = insert("16UC1", zeros.tobytes())
+    assert stats.non_finite == DH * DW // 2 and stats.inserted > 0
+    return ""
+
 CASES = [
     # mapper: LaserScan -> convert.scan_data -> Mapper.check_scan / insert
     Case("scan_ranges_nan", "360 ranges NaN", "mapper: beams classified", "nan 360", KEEPS_MAP,
@@ -620,6 +675,26 @@ CASES = [
          DETECTS, frame(lambda: compressed_to_gray("jpeg", b"\xff\xd8" + bytes(range(256)) * 4))),
     Case("compressed_empty", "a CompressedImage with no data", "tag_detector: compressed_to_gray", "has no data",
          DETECTS, frame(lambda: compressed_to_gray("jpeg", b""))),
+    # mapper's OctoMap layer: depth Image / CameraInfo -> perception.depth, OctomapLayer.insert
+    Case("depth_nan_and_zero_pixels", "depth frames half NaN (32FC1) and half 0 (16UC1)",
+         "mapper: depth_metres, OctomapLayer.insert", "",
+         "the pixels that returned are inserted, the others skipped and counted; the wall stays",
+         lambda _tmp: depth_layer(depth_holes)),
+    Case("depth_encoding_rgb8", "a colour image on the depth topic", "mapper: depth_metres",
+         "depth encoding 'rgb8' is not supported", "the OcTree unchanged; the next depth frame inserted",
+         lambda _tmp: depth_layer(lambda c, layer, insert: insert("rgb8", bytes(3 * DW * DH)))),
+    Case("depth_size_not_camera_info", "a 80 x 60 depth image, camera_info for 160 x 120",
+         "mapper: DepthCamera.points", "camera_info is for 160 x 120 but the depth image is 80 x 60",
+         "the OcTree unchanged; the next depth frame inserted",
+         lambda _tmp: depth_layer(lambda camera, layer, insert: camera.points(
+             depth_metres("32FC1", 60, 80, 320, bytes(4 * 80 * 60)), OPTICAL))),
+    Case("depth_camera_info_zero", "depth camera_info with K all zeros", "mapper: DepthCamera",
+         "K has no positive focal lengths", "the camera of the last good camera_info kept; frames inserted",
+         lambda _tmp: depth_layer(lambda c, layer, insert: DepthCamera([0.0] * 9, DW, DH, 1))),
+    Case("depth_pose_not_finite", "a depth frame whose transform has a NaN", "mapper: DepthCamera.points",
+         "the camera pose must be a finite 4 x 4 transform", "the OcTree unchanged; the next depth frame inserted",
+         lambda _tmp: depth_layer(lambda camera, layer, insert: camera.points(
+             np.full((DH, DW), 2.0, np.float32), np.full((4, 4), NAN)))),
     # tag tracker: TagDetection -> TagTracker.update
     Case("detection_unknown_family", "a detection of family tag99h9", "tag_tracker: TagTracker.update",
          "unknown marker family 'tag99h9'", "the tag seen before kept; the next sighting confirms it",

@@ -62,7 +62,7 @@ BLOCKS = {
     **{("explorer.yaml", ("strategies", name)): cls.Settings for name, cls in STRATEGIES.items()},
 }
 OWN_FILE = {LatticeSettings: "lattice.yaml", DwaSettings: "dwa.yaml", PdSettings: "pd.yaml",
-            MppiSettings: "mppi.yaml", TubeMppiSettings: "tube_mppi.yaml"}
+            MppiSettings: "mppi.yaml", TubeMppiSettings: "tube_mppi.yaml", OctomapSettings: "octomap.yaml"}
 # Chosen per run, so never defaulted by a node: the launch files set them, and the top-level
 # launch files hold their one default (test_defaults.py checks those).
 SET_BY_LAUNCH = {"robot", "world"}
@@ -191,7 +191,8 @@ def test_every_controller_has_a_settings_block_and_the_default_is_one():
         assert NavigationSettings(controller=name).controller_settings() == settings_cls()
     launch = (TOP / "launch" / "navigator.launch").read_text()
     for cls, file in OWN_FILE.items():
-        if cls is not LatticeSettings:
+        if cls is not LatticeSettings and cls in hints.values():
             assert f"config/{file}" in launch, file
+    assert 'config/octomap.yaml" command="load" ns="octomap"' in (TOP / "launch" / "mapper.launch").read_text()
     with pytest.raises(ConfigError, match="navigator/controller: unknown controller 'mpc'; choose one of"):
         from_dict(NavigationSettings, {"controller": "mpc"}, "navigator")

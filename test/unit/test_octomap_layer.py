@@ -325,3 +325,23 @@ def test_memory_and_leaves_grow_with_what_is_seen():
     see(layer, [FLOOR])
     assert layer.leaf_count > 1000 and layer.memory_bytes > empty_bytes
     assert "OctomapLayer(resolution=0.05" in repr(layer.tree)
+
+
+def test_a_scan_becomes_its_returns_at_the_lidars_height():
+    from turtlebot_recon.mapping.octomap_layer import scan_cloud
+    sensor = np.eye(4)
+    sensor[:3, 3] = (1.0, 2.0, 0.287)                    # the lidar at (1, 2), 0.287 m up, facing +y
+    sensor[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    ranges = np.array([2.0, np.inf, np.nan, 0.1, 5.0, 1.0], np.float32)   # one return, junk, one return
+    pts = scan_cloud(ranges, -np.pi / 2, np.pi / 5, 0.2, 4.0, sensor)
+    assert pts.dtype == np.float32 and pts.shape == (2, 3)
+    # beam 0 at -90 deg in the laser frame points along the map's +x; beam 5 at +90 deg along -x
+    assert np.allclose(pts, [[3.0, 2.0, 0.287], [0.0, 2.0, 0.287]], atol=1e-5)
+
+
+def test_height_colours_run_from_blue_at_the_floor_to_red_at_the_top():
+    from turtlebot_recon.mapping.octomap_layer import height_colours
+    rgb = height_colours(np.array([0.0, 0.03, 0.215, 0.4, 2.0]), 0.03, 0.4)
+    assert np.allclose(rgb[0], (0, 0, 1)) and np.allclose(rgb[1], (0, 0, 1))   # at or below the band
+    assert np.allclose(rgb[2], (0, 1, 0), atol=1e-6)                           # half way: green
+    assert np.allclose(rgb[3], (1, 0, 0)) and np.allclose(rgb[4], (1, 0, 0))   # the top and above

@@ -245,6 +245,7 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "ate_m": pytest.approx(0.035355, abs=1e-6),
         "tags_placed": None, "tags_confirmed": None, "tag_recall": None, "tag_error_median_m": None,
         "tag_error_max_m": None, "false_tags": None, "tag_search_s": None,
+        "landmarks": None, "landmark_error_median_m": None, "landmark_error_max_m": None, "false_landmarks": None,
         "distance_m": 2.0, "collisions": 1,
         "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
         "ate_odometry_m": pytest.approx(0.035355, abs=1e-6),   # no SLAM: the odometry is the estimate
@@ -489,3 +490,20 @@ def test_standing_time_and_stops_on_a_synthetic_trajectory():
     assert standing(creep, 0.0, 1.0)[0] == pytest.approx(1.0)
     assert standing(creep * [1.0, 1.5, 1.0], 0.0, 1.0)[0] == 0.0
     assert standing(np.zeros((1, 3)), 0.0, 1.0) == (0.0, 0)
+
+
+def test_slams_landmarks_are_scored_in_x_y_against_the_worlds_tags(tmp_path):
+    from turtlebot_recon.evaluation.evaluator import landmark_report, true_tags
+    from turtlebot_recon.sim.world import Tag
+    import dataclasses
+    world = load_world("house")
+    world = dataclasses.replace(world, tags=(Tag(3, "tag36h11", 2.0, 3.0, 0.25, 0.0, 0.16),
+                                             Tag(4, "tag36h11", 5.0, 3.0, 0.25, 0.0, 0.16)))
+    (_, _, x3, y3, _), (_, _, x4, y4, _) = true_tags(world)          # in the map frame
+    # the graph is 2-D: its z (0) must not count against the tags' 0.25 m
+    got = landmark_report(world, [("tag36h11", 3, x3 + 0.03, y3 - 0.04, 0.0),
+                                  ("tag36h11", 4, x4 + 0.01, y4, 0.0),
+                                  ("tag36h11", 9, x4, y4, 0.0)])            # no such tag: false
+    assert got == {"landmarks": 3, "landmark_error_median_m": 0.03, "landmark_error_max_m": 0.05,
+                   "false_landmarks": 1}
+    assert set(landmark_report(world, None).values()) == {None}           # no SLAM graph

@@ -206,6 +206,18 @@ def tag_report(world: World, tags: Optional[list]) -> dict:
     return tag_metrics(true_tags(world), tags)
 
 
+def landmark_report(world: World, landmarks: Optional[list]) -> dict:
+    """Extra keys for SLAM's tag landmarks (its latest slam/landmarks: (family, id, x, y, z) in
+    the map frame; None when no SLAM graph published any): how many, and their x-y error
+    against the world's tags (``match_tags``; the graph is 2-D, so its z is not compared)."""
+    if landmarks is None:
+        return dict.fromkeys(("landmarks", "landmark_error_median_m", "landmark_error_max_m", "false_landmarks"))
+    flat = [(f, i, x, y, None) for f, i, x, y, _ in landmarks]
+    m = tag_metrics(true_tags(world), flat)
+    return {"landmarks": m["tags_confirmed"], "landmark_error_median_m": m["tag_error_median_m"],
+            "landmark_error_max_m": m["tag_error_max_m"], "false_landmarks": m["false_tags"]}
+
+
 def tag_search_s(log: RunLog, end_s: float, tags: Optional[list]) -> Optional[float]:
     """Sim s from the explorer's "tags" phase (its first explore/phase "tags": lidar exploration
     over, the search for tags begun) to ``end_s``; None without a tag tracker or that phase."""
@@ -217,11 +229,13 @@ def tag_search_s(log: RunLog, end_s: float, tags: Optional[list]) -> Optional[fl
 
 def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, coverage: CoverageTracker,
                log: RunLog, end_s: float, wall_time_s: float, reason: str, strategy: Optional[str],
-               final_map: Optional[FinalMap] = None, tags: Optional[list] = None) -> dict:
+               final_map: Optional[FinalMap] = None, tags: Optional[list] = None,
+               landmarks: Optional[list] = None) -> dict:
     """report.json's content: DESIGN §6 keys, then extras. ``tags``: the confirmed tags at the
     end, (family, id, x, y, z) in the map frame; None when no tag tracker ran (tag keys null,
     and the extra ``tag_search_s``: sim s from the explorer's "tags" phase to the end, null too
-    without that phase).
+    without that phase). ``landmarks``: SLAM's tags in its graph at the end, same form; None
+    without (``landmark_report``'s extra keys null).
     ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
     ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
     Extra keys ``time_standing_s`` and ``stops`` (``metrics.standing``: true ground speed under
@@ -255,6 +269,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
         "ate_m": log.ate_m(),
         **tag_report(world, tags),
         "tag_search_s": tag_search_s(log, end_s, tags),   # extra key (after the DESIGN ones in report.json)
+        **landmark_report(world, landmarks),             # extra keys
         "distance_m": round(log.distance_m, 3), "collisions": log.collisions,
         "sim_time_s": round(sim_s, 2), "wall_time_s": round(wall_time_s, 2),
         "rtf": round(sim_s / wall_time_s, 2) if wall_time_s > 0 else None, "finished_reason": reason,

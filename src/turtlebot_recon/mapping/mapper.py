@@ -16,6 +16,7 @@ import numpy as np
 from ..config import positive, require
 from ..geometry import between, compose
 from .grid import GridSettings, make_grid
+from .octomap_layer import OctomapSettings
 
 # Kobuki bumpers (kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2): body angle of each centre.
 BUMPER_ANGLE_RAD = {0: math.pi / 3, 1: 0.0, 2: -math.pi / 3}
@@ -47,6 +48,12 @@ class MapperSettings:
     rerender_shift_rad: float = 0.01     # rad (3.5 cm at the lidar's 3.5 m)
     odom_frame: str = "odom"             # with SLAM, scans are kept with their odometry pose
     grid: GridSettings = field(default_factory=GridSettings)
+    # The 3-D obstacle layer (mapping/octomap_layer.py): depth images (camera/depth/image_raw)
+    # and the lidar's returns at its mounting height go into an OcTree whose obstacles between
+    # the floor band and the robot's top join /map and the saved map; octomap.bt is saved
+    # beside the map. Its settings: config/octomap.yaml, loaded under ~octomap
+    octomap_layer: bool = False
+    octomap: OctomapSettings = field(default_factory=OctomapSettings)
 
     def validate(self, src: str) -> None:
         positive(src, self, "publish_rate_hz", "tf_timeout_s", "rerender_shift_m", "rerender_shift_rad")

@@ -140,3 +140,28 @@ def merge_obstacles(occupancy: np.ndarray, layer: np.ndarray) -> np.ndarray:
         raise ValueError(f"merge_obstacles: the layer's shape {layer.shape} is not the grid's "
                          f"{occupancy.shape}")
     return np.maximum(occupancy, layer)
+
+
+def scan_cloud(ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float,
+               range_max: float, sensor: np.ndarray) -> np.ndarray:
+    """float32 (n, 3) map-frame end points of a laser scan's returns (finite ranges within
+    [range_min, range_max]) from ``sensor``, the 4 x 4 pose map ← laser frame: the lidar at its
+    mounting height for the OcTree. A beam with no return gives no point: how far it cleared
+    is not known (the depth camera's rays clear the space in front of the robot)."""
+    r = np.asarray(ranges, np.float64)
+    beam = np.arange(r.size)
+    ok = np.isfinite(r) & (r >= range_min) & (r <= range_max)
+    a = angle_min + angle_increment * beam[ok]
+    local = np.stack((r[ok] * np.cos(a), r[ok] * np.sin(a), np.zeros(a.size)), axis=1)
+    sensor = np.asarray(sensor, np.float64)
+    return (local @ sensor[:3, :3].T + sensor[:3, 3]).astype(np.float32)
+
+
+def height_colours(z: np.ndarray, z_low: float, z_high: float) -> np.ndarray:
+    """float32 (n, 3) RGB in [0, 1] for heights ``z`` m: blue at ``z_low`` through green to red
+    at ``z_high`` and above (octomap_server's colouring of occupied cells by height)."""
+    t = np.clip((np.asarray(z, np.float64) - z_low) / max(z_high - z_low, 1e-9), 0.0, 1.0)
+    rgb = np.stack((np.clip(2.0 * t - 1.0, 0.0, 1.0),          # red rises over the upper half
+                    1.0 - np.abs(2.0 * t - 1.0),                 # green peaks in the middle
+                    np.clip(1.0 - 2.0 * t, 0.0, 1.0)), axis=1)   # blue falls over the lower half
+    return rgb.astype(np.float32)

@@ -21,6 +21,8 @@ class SlamNodeSettings:
     transform_tolerance_s: float = 0.1    # map -> odom stamped this far ahead (slam_gmapping's)
     tf_timeout_s: float = 0.1             # wait this long for odometry at a scan's stamp
     output_dir: str = ""                  # ~save writes here ('' = $ROS_HOME/slam)
+    tag_landmarks: bool = True            # mapping: tags seen (tags/detections) are landmarks in the
+                                          # graph, published on slam/landmarks; false: ignored
     mode: str = "mapping"                 # mapping (SLAM) | localization (track in map_file)
     map_file: str = ""                    # localization: a map_server YAML (e.g. a run's map.yaml)
     initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)  # localization: the start pose in
