@@ -82,4 +82,18 @@ SampledPath plan_sampling(const std::int8_t* occupancy, int rows, int cols, doub
                           const Footprint& footprint, const SamplingRequest& request,
                           const std::vector<double>& goal_yaws);
 
+// A 2-D path (`points` in metres from the grid's corner, e.g. A*'s cell centres; the first is
+// the start, at request.start's yaw) made followable for `footprint`: from each kept pose, the
+// farthest later point the robot reaches by turning in place to face it and driving straight
+// (backward where the robot may back, reverse_cost_factor > 0), the body clear all the way with
+// request's margins (the motions above); the scan stops at the first point not reached after
+// one that is, as a line-of-sight shortcut's greedy rule, the sight being the swept footprint.
+// The last point is reached at the heading held on the way. Not solved, with the reason, where
+// a kept pose reaches no later point (A* on a footprint costmap passes cells where some
+// heading fits, not always the one its path needs). Throws std::invalid_argument for a bad
+// argument.
+SampledPath shortcut_turn_drive(const std::int8_t* occupancy, int rows, int cols, double resolution_m,
+                                const Footprint& footprint, const SamplingRequest& request,
+                                const std::vector<std::array<double, 2>>& points);
+
 }  // namespace turtlebot_recon::planning

@@ -147,3 +147,35 @@ def test_bad_arguments_raise_value_error():
         plan_sampling(occ, RES, ORIGIN, BURGER, (0.5, 1.0, 0.0), (3.0, 1.0), "rrtconnect", 0.0)
     with pytest.raises(ValueError, match="finite"):
         plan_sampling(occ, RES, ORIGIN, BURGER, (math.nan, 1.0, 0.0), (3.0, 1.0), "rrtconnect", 0.1)
+
+
+@pytest.mark.parametrize("robot", [WAFFLE, BURGER], ids=lambda r: r.name)
+def test_astars_cells_shortened_for_the_footprint_round_the_corner_clear(robot):
+    from turtlebot_recon import geometry
+    from turtlebot_recon.planning import PlannerSettings, footprint_costmap, plan
+    from turtlebot_recon.planning.sampling import shortcut_turn_drive
+    occ = l_corridor()
+    start, goal = (0.45, 0.6, 0.0), (2.65, 2.5)
+    costmap = footprint_costmap(occ, RES, robot, LatticeSettings())
+    cells = plan(costmap, geometry.xy_to_cell(start, RES, ORIGIN), geometry.xy_to_cell(goal, RES, ORIGIN),
+                 PlannerSettings(visit_sensitivity=0.0, shortcut=False), resolution=RES)
+    pts = geometry.cells_to_points(cells, RES, ORIGIN)
+    pts[0], pts[-1] = start[:2], goal
+    path = shortcut_turn_drive(occ, RES, ORIGIN, robot, pts, start[2])
+    check_path(occ, robot, path, start, goal)
+    # a handful of straight legs, not A*'s cell steps, and no longer than the steps
+    assert 3 <= len(path.poses) <= 6 < len(pts)
+    assert path.length_m <= np.hypot(*np.diff(pts, axis=0).T).sum() + 1e-9
+
+
+def test_a_path_through_a_wall_is_no_followable_path():
+    from turtlebot_recon.planning.sampling import shortcut_turn_drive
+    occ = walled(40, 80)
+    occ[:, 40:42] = 100                    # a wall across the room
+    pts = np.array([(0.5, 1.0), (1.9, 1.0), (2.2, 1.0), (3.5, 1.0)])
+    with pytest.raises(PlanningError, match="reaches no later point of the path"):
+        shortcut_turn_drive(occ, RES, ORIGIN, BURGER, pts, 0.0)
+    with pytest.raises(PlanningError, match="the start is off the map"):
+        shortcut_turn_drive(occ, RES, ORIGIN, BURGER, np.array([(2.05, 1.0), (3.5, 1.0)]), 0.0)
+    with pytest.raises(ValueError, match="points must be finite"):
+        shortcut_turn_drive(occ, RES, ORIGIN, BURGER, np.array([(0.5, 1.0), (np.nan, 1.0)]), 0.0)

@@ -75,6 +75,33 @@ def plan_sampling(occupancy: np.ndarray, resolution: float, origin: Sequence[flo
                        cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
 
 
+def shortcut_turn_drive(occupancy: np.ndarray, resolution: float, origin: Sequence[float], robot: RobotSpec,
+                        points: np.ndarray, start_yaw: float,
+                        settings: LatticeSettings = LatticeSettings()) -> SampledPath:
+    """A 2-D path's ``points`` ((n, 2) m in the grid's frame, e.g. A*'s cell centres; the first
+    the start, the robot facing ``start_yaw``) shortened for ``robot``'s footprint as the follower
+    drives it: from each kept pose, the farthest later point reached by a turn in place and a
+    straight drive (backward where ``settings`` lets it back), the body ``settings``' margins off
+    every obstacle (``_native.shortcut_turn_drive``). PlanningError with one line where some
+    kept pose reaches no later point; ValueError for a bad argument."""
+    settings = settings.with_robot(robot)
+    settings.validate("LatticeSettings")
+    ox, oy = float(origin[0]), float(origin[1])
+    pts = np.asarray(points, dtype=float).reshape(-1, 2) - (ox, oy)
+    out = _native.shortcut_turn_drive(
+        occupancy, resolution, pts, float(start_yaw), **footprint_args(robot), margin_m=settings.margin_m,
+        turn_margin_m=settings.turn_margin_m, turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
+        reverse_cost_factor=settings.reverse_cost_factor, occupied_threshold=OCCUPIED_THRESH)
+    if not out["solved"]:
+        raise PlanningError(f"shortcut_turn_drive: {out['reason']}")
+    poses = out["poses"]
+    poses[:, 0] += ox
+    poses[:, 1] += oy
+    return SampledPath(poses=poses, reversed=out["reversed"], length_m=out["length_m"],
+                       reversed_m=out["reversed_m"], turned_rad=out["turned_rad"],
+                       cost_m=out["cost_m"], solve_s=0.0, simplify_s=0.0)
+
+
 def as_lattice_path(path: SampledPath, resolution: float, origin: Sequence[float]) -> LatticePath:
     """``path`` in the lattice's form, for the navigator (which follows the runs between turns
     and backs where a plan does): a pose at each turn in place (turned) and every cell or less
