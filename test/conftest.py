@@ -50,6 +50,7 @@ def make_sim():
 
     def make(world, robot="turtlebot3_burger", **settings):
         settings.setdefault("camera_rate_hz", 0.0)
+        settings.setdefault("depth_rate_hz", 0.0)
         sim = Simulator(load_world(world), load_robot(robot), SimSettings(**settings))
         made.append(sim)
         return sim

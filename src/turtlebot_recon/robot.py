@@ -74,6 +74,29 @@ class CameraSpec:
 
 
 @dataclass(frozen=True)
+class DepthCameraSpec:
+    """A depth camera registered to the RGB camera (the TurtleBot 2's Astra/Kinect with
+    turtlebot_bringup's depth_registration): the RGB camera's mount and field of view, its own
+    resolution, range and noise. Pixels report the z-depth along the optical axis (REP 118)."""
+    optical_frame_id: str = "camera_depth_optical"   # a child of the RGB camera's frame_id
+    width_px: int = 160
+    height_px: int = 120
+    range_min_m: float = 0.45        # nearer or farther: no return (NaN)
+    range_max_m: float = 4.0
+    noise_std_m: float = 0.0012      # axial noise std sigma(z) = noise_std_m + noise_quad_per_m * z^2
+    noise_quad_per_m: float = 0.0019
+
+    def validate(self, src: str) -> None:
+        positive(src, self, "width_px", "height_px", "range_min_m", "range_max_m")
+        require(self.range_min_m < self.range_max_m, src, "range_min_m", "must be < range_max_m")
+        require(self.noise_std_m >= 0 and self.noise_quad_per_m >= 0, src, "noise_std_m",
+                "must be >= 0 (and noise_quad_per_m too)")
+
+    def fx_px(self, hfov_rad: float) -> float:
+        return 0.5 * self.width_px / math.tan(0.5 * hfov_rad)
+
+
+@dataclass(frozen=True)
 class RobotSpec:
     name: str
     wheel_radius_m: float
@@ -93,6 +116,7 @@ class RobotSpec:
     bumpers: bool = False                # Kobuki left/centre/right bumpers
     lidar: LidarSpec = field(default_factory=LidarSpec)
     camera: Optional[CameraSpec] = None
+    depth_camera: Optional[DepthCameraSpec] = None   # registered to ``camera``: needs one
 
     def validate(self, src: str) -> None:
         positive(src, self, "wheel_radius_m", "wheel_separation_m", "max_linear_mps",
@@ -100,6 +124,8 @@ class RobotSpec:
                  "radius_m", "body_height_m", "odom_rate_hz", "imu_rate_hz")
         require((self.footprint_length_m > 0) == (self.footprint_width_m > 0), src,
                 "footprint_length_m", "give both footprint_length_m and footprint_width_m, or neither")
+        require(self.depth_camera is None or self.camera is not None, src, "depth_camera",
+                "is registered to the RGB camera: give a camera block too")
 
     @property
     def is_round(self) -> bool:

@@ -9,7 +9,14 @@
    measured from /clock over a wall-clock window: burger (lidar only) and waffle_pi (camera at
    5 Hz) in house and office. Targets: >= 30x burger, >= 5x with the camera.
 3. For reference, the same loop in-process without ROS (the simulator core alone).
+4. Camera render cost (ms per frame, median of FRAMES turning frames, the TurtleBot 2 in the
+   house): RGB at 640 x 480, 320 x 240, 160 x 120 with each renderer (egl, tiny); the depth
+   image alone at its 160 x 120 (TinyRenderer, as the simulator renders it without the RGB
+   camera); the RGB + depth pair from one render, over the RGB frame alone; and the bridge's
+   depth messages (32FC1 image + 80 x 60 cloud) built from a frame.
+   `bench_sim.py --render` runs this part alone.
 """
+import dataclasses
 import os
 import signal
 import subprocess
@@ -63,6 +70,63 @@ def core_rtf(world: str, robot: str, camera_hz: float, sim_s: float = 60.0) -> f
     return rtf
 
 
+FRAMES = 30
+
+
+def _median_ms(fn, frames: int = FRAMES, turn=None) -> tuple:
+    """(wall ms, CPU ms) of one call of ``fn``, medians over ``frames`` calls. The CPU time is
+    the process's, all threads (llvmpipe renders on several): steadier on a shared machine."""
+    fn()                                          # the first frame (EGL: context, shaders) apart
+    wall, cpu = [], []
+    for _ in range(frames):
+        if turn is not None:
+            turn()
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    return 1e3 * float(np.median(wall)), 1e3 * float(np.median(cpu))
+
+
+def _put(out: dict, name: str, ms: tuple) -> None:
+    out[f"render_ms_{name}"], out[f"render_cpu_ms_{name}"] = ms
+
+
+def render_ms() -> dict:
+    """Section 4: ms per frame of each camera render (module docstring)."""
+    from turtlebot_recon.perception.depth import DepthCamera
+    from turtlebot_recon.ros import convert
+    world, tb2 = load_world("house"), load_robot("turtlebot2")
+    out = {}
+    for renderer in ("egl", "tiny"):
+        for w, h in ((640, 480), (320, 240), (160, 120)):
+            robot = dataclasses.replace(tb2, camera=dataclasses.replace(tb2.camera, width_px=w, height_px=h),
+                                        depth_camera=None)
+            sim = Simulator(world, robot, SimSettings(camera_rate_hz=5.0, depth_rate_hz=0.0, camera_renderer=renderer))
+            _put(out, f"rgb_{w}x{h}_{renderer}", _median_ms(sim.render_camera, turn=lambda: _turn(sim)))
+            sim.close()
+        sim = Simulator(world, tb2, SimSettings(camera_rate_hz=5.0, depth_rate_hz=2.5, camera_renderer=renderer))
+        _put(out, f"rgb_and_depth_640x480_{renderer}", _median_ms(lambda: sim.render_views(True, True),
+                                                                  turn=lambda: _turn(sim)))
+        sim.close()
+    sim = Simulator(world, tb2, SimSettings(camera_rate_hz=0.0, depth_rate_hz=2.5))   # depth alone: tiny
+    dep = tb2.depth_camera
+    _put(out, f"depth_{dep.width_px}x{dep.height_px}_alone", _median_ms(lambda: sim.render_views(False, True),
+                                                                        turn=lambda: _turn(sim)))
+    depth = sim.render_views(False, True)[1]
+    cloud = DepthCamera(sim.depth_matrix(), dep.width_px, dep.height_px, SimSettings().depth_points_stride_px)
+    out["depth_messages_ms"], _ = _median_ms(lambda: (
+        convert.image_32fc1(depth, dep.optical_frame_id, 0.0),
+        convert.point_cloud_xyz(cloud.optical_points(depth), *cloud.shape, dep.optical_frame_id, 0.0)))
+    sim.close()
+    return out
+
+
+def _turn(sim) -> None:
+    """A new view each frame: the robot turns 0.3 rad in place."""
+    sim.pose[2] += 0.3
+
+
 def bridge_rtf(world: str, robot: str, camera_hz: float) -> float:
     """sim_bridge at rtf:=0 with the scripted wander; RTF from /clock over WINDOW_S wall seconds."""
     import rospy
@@ -85,6 +149,9 @@ def bridge_rtf(world: str, robot: str, camera_hz: float) -> float:
 
 def main():
     import rospy
+    if "--render" in sys.argv[1:]:
+        write("sim_render", render_ms())
+        return
     figures = {}
     with tempfile.TemporaryDirectory() as tmp:
         image, meta = worldgen.warehouse()
@@ -96,6 +163,7 @@ def main():
         worldgen.write_world(Path(tmp), "speckled", speckled, {**meta, "tags": [], "start": None})
         figures.update(load_times({"warehouse_1000x1700": Path(tmp) / "warehouse.yaml",
                                    "warehouse_1000x1700_speckled": Path(tmp) / "speckled.yaml"}))
+    figures.update(render_ms())
     for world in ("house", "office"):
         figures[f"core_rtf_burger_{world}"] = core_rtf(world, "turtlebot3_burger", 0.0)
         figures[f"core_rtf_waffle_pi_{world}"] = core_rtf(world, "turtlebot3_waffle_pi", 5.0)

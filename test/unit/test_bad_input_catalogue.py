@@ -724,6 +724,12 @@ CASES = [
          "expected a mapping at the top level", WORLD_OK, world_text("- image: good.pgm\n")),
     Case("world_not_yaml", "a world file that is not YAML", "sim_bridge: load_world", "not valid YAML", WORLD_OK,
          world_text("image: [good.pgm\nresolution: 0.05\n")),
+    Case("world_obstacle_band_inverted", "an obstacle with z_min 0.5, z_max 0.3", "sim_bridge: load_world",
+         "key 'obstacles[0]': z_min 0.5 m must be below z_max 0.3 m", WORLD_OK,
+         world(lambda m: m.update(obstacles=[{"x0": 0.5, "y0": 0.5, "x1": 0.8, "y1": 0.8, "z_min": 0.5, "z_max": 0.3}]))),
+    Case("world_obstacle_missing_key", "an obstacle without z_max", "sim_bridge: load_world",
+         "key 'obstacles[0]': missing ['z_max']", WORLD_OK,
+         world(lambda m: m.update(obstacles=[{"x0": 0.5, "y0": 0.5, "x1": 0.8, "y1": 0.8, "z_min": 0.0}]))),
     # saved maps: initial_map / saved_map -> map_io.load_map_as -> Mapper(prior)
     Case("saved_map_other_resolution", "a saved map at 0.1 m, the mapper at 0.05 m", "mapper: Mapper(prior)",
          "resolution 0.1 m differs from the mapper's grid.resolution 0.05 m", SAVED_OK,

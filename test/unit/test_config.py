@@ -146,8 +146,9 @@ def test_every_config_file_and_key_has_a_settings_class():
 @pytest.mark.parametrize("path", sorted(CONFIG_DIR.glob("*.yaml")), ids=lambda p: p.stem)
 def test_robot_yaml_is_complete(path):
     data = load_yaml(path)
-    # everything but the box footprint (round robots) and the camera (burger) is spelled out
-    optional = {"footprint_length_m", "footprint_width_m", "footprint_offset_x_m", "camera"}
+    # everything but the box footprint (round robots), the camera (burger) and the depth camera
+    # (the TurtleBot 3s) is spelled out
+    optional = {"footprint_length_m", "footprint_width_m", "footprint_offset_x_m", "camera", "depth_camera"}
     required = {f.name for f in dataclasses.fields(RobotSpec)} - optional
     assert required <= set(data), required - set(data)
     robot = load_robot(path.stem)

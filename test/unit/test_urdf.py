@@ -87,6 +87,13 @@ def test_sensor_frames_equal_the_robot_yaml(name):
     assert optical[:3, 3] == pytest.approx(cam[:3, 3], abs=1e-12)
     # REP-103's optical frame: z forward, x right, y down (columns: its axes in base_footprint)
     assert optical[:3, :3] == pytest.approx(np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]]), abs=1e-12)
+    # the depth camera (TurtleBot 2) is registered to the RGB one: its optical frame is the same
+    # pose, beside camera_optical under the camera's frame; the TurtleBot 3s have none
+    d = robot.depth_camera
+    assert (d is not None) == (name == "turtlebot2")
+    if d is not None:
+        assert parents[d.optical_frame_id] == c.frame_id and d.optical_frame_id != c.optical_frame_id
+        assert poses[d.optical_frame_id] == pytest.approx(optical, abs=1e-12)
 
 
 @pytest.mark.parametrize("name", ROBOTS)

@@ -17,7 +17,12 @@ SPEC = {  # name: (min width m, min height m, min tags)
     "doors": (15.5, 10.5, 8),       # 16 x 11 m
     "cluttered": (24.5, 16.5, 6),   # held out, issue 30: 25 x 17 m
     "warehouse": (33.5, 48.5, 6),   # bench-explore's FULL=1 floor: 35 x 50 m, walls 0.3 m
+    "house_furniture": (14.5, 9.5, 6),   # the house with low furniture (issue 33)
+    "office_steps": (30.0, 20.0, 8),     # the office with steps, bins and low shelves (issue 33)
 }
+# Worlds with height-band obstacles, built on a shipped world's image (which stays as it is)
+WITH_OBSTACLES = {"house_furniture": "house", "office_steps": "office"}
+TB2_RADIUS_M, TB2_SCAN_M, TB2_TOP_M = 0.177, 0.287, 0.41   # the body as the simulator places it: 0.01-0.41 m
 BURGER_BAND_M = 0.105 + 0.05 * math.sqrt(2)    # the planner's inscribed band for the burger, 0.176 m
 
 
@@ -82,3 +87,35 @@ def test_worlds_are_regenerated_identically(tmp_path, name):
     from turtlebot_recon.sim.world import WORLDS_DIR
     assert (tmp_path / f"{name}.pgm").read_bytes() == (WORLDS_DIR / f"{name}.pgm").read_bytes()
     assert (tmp_path / f"{name}.yaml").read_text() == (WORLDS_DIR / f"{name}.yaml").read_text()
+
+
+@pytest.mark.parametrize("name", sorted(WITH_OBSTACLES))
+def test_obstacle_worlds_stay_explorable_and_hide_things_from_the_scan(name):
+    """Every box leaves the world explorable for the TurtleBot 2 with margin: each free cell that
+    its disc + 3 cm could reach from the start in the world without the boxes, and that lies over
+    0.6 m from every box, is still reachable, and so is a spot beside each box (no door or
+    corridor closed). The boxes hide things from the depth scan both ways (a step below it, a
+    bed frame between it and the robot's top) and some reach its height."""
+    w = load_world(name)
+    bare = load_world(WITH_OBSTACLES[name])
+    assert np.array_equal(w.walls, bare.solid) and w.tags == bare.tags and w.start == bare.start
+
+    def reach(world):
+        labels, _ = ndimage.label(world.clearance() >= TB2_RADIUS_M + 0.03)
+        return labels == labels[world.cell(*world.start[:2])]
+
+    before, after = reach(bare), reach(w)
+    boxes = bare.free & ~w.free
+    far = ndimage.distance_transform_edt(~boxes) * w.resolution > 0.6
+    assert not (before & ~after & far).any()
+    for b in w.obstacles:
+        one = np.zeros_like(boxes)
+        r0, c0 = w.cell(b.x0, b.y0)
+        r1, c1 = w.cell(b.x1 - 1e-9, b.y1 - 1e-9)
+        one[r0:r1 + 1, c0:c1 + 1] = True
+        beside = (ndimage.distance_transform_edt(~one) * w.resolution < 0.45) & ~one
+        assert (after & beside).any(), b
+    under = [b for b in w.obstacles if b.z_max < TB2_SCAN_M]
+    over = [b for b in w.obstacles if TB2_SCAN_M < b.z_min < TB2_TOP_M]
+    seen = [b for b in w.obstacles if b.z_min <= TB2_SCAN_M <= b.z_max]
+    assert len(under) >= 3 and len(over) >= 3 and len(seen) >= 1

@@ -8,12 +8,12 @@ import rospy
 from geometry_msgs.msg import Quaternion, TransformStamped
 from nav_msgs.msg import OccupancyGrid, Odometry
 from rospy.numpy_msg import numpy_msg
-from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
+from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan, PointCloud2, PointField
 
 from scipy.spatial.transform import Rotation
 
 from ..geometry import yaw_from_quaternion
-from ..robot import CameraSpec, LidarSpec
+from ..robot import CameraSpec, DepthCameraSpec, LidarSpec
 
 
 def stamp(t_s: float) -> rospy.Time:
@@ -111,7 +111,30 @@ def image_rgb8(rgb: np.ndarray, frame: str, t_s: float) -> Image:
     return m
 
 
-def camera_info(spec: CameraSpec, k: np.ndarray, t_s: float) -> CameraInfo:
+def image_32fc1(depth_m: np.ndarray, frame: str, t_s: float) -> Image:
+    """sensor_msgs/Image 32FC1 (REP 118: metres, NaN where nothing returns) from an (H, W) array."""
+    m = Image()
+    m.header.stamp, m.header.frame_id = stamp(t_s), frame
+    m.height, m.width = depth_m.shape
+    m.encoding, m.is_bigendian, m.step = "32FC1", 0, 4 * depth_m.shape[1]
+    m.data = np.ascontiguousarray(depth_m, dtype="<f4").tobytes()
+    return m
+
+
+def point_cloud_xyz(points: np.ndarray, rows: int, cols: int, frame: str, t_s: float) -> PointCloud2:
+    """An organised sensor_msgs/PointCloud2 (``rows`` x ``cols``, fields x, y, z float32) from
+    (rows * cols, 3) points in image order; NaN points (no return) stay, so is_dense is false."""
+    m = PointCloud2()
+    m.header.stamp, m.header.frame_id = stamp(t_s), frame
+    m.height, m.width = rows, cols
+    m.fields = [PointField(name, 4 * i, PointField.FLOAT32, 1) for i, name in enumerate("xyz")]
+    m.is_bigendian, m.point_step, m.row_step, m.is_dense = False, 12, 12 * cols, False
+    m.data = np.ascontiguousarray(points, dtype="<f4").reshape(rows * cols, 3).tobytes()
+    return m
+
+
+def camera_info(spec: CameraSpec | DepthCameraSpec, k: np.ndarray, t_s: float) -> CameraInfo:
+    """CameraInfo of an undistorted pinhole camera (K, its size and optical frame from ``spec``)."""
     m = CameraInfo()
     m.header.stamp, m.header.frame_id = stamp(t_s), spec.optical_frame_id
     m.width, m.height = spec.width_px, spec.height_px

@@ -1,4 +1,5 @@
-"""The simulated TurtleBot: PyBullet (DIRECT mode) world, kinematic base, lidar, camera, IMU.
+"""The simulated TurtleBot: PyBullet (DIRECT mode) world, kinematic base, lidar, camera, depth
+camera, IMU.
 
 One call to ``step()`` advances one physics step of ``1 / physics_hz`` seconds and returns the
 names of the sensors due at the new time; the caller (the ROS bridge, a test, a benchmark)
@@ -6,7 +7,9 @@ reads those sensors. Nothing here blocks or knows about ROS.
 
 The base is kinematic: each step moves it by the twist the wheels produce; PyBullet's contact
 query rejects a move that would penetrate a wall, the wheels stall, and the contact counts as
-a collision (and a bumper press on robots that have bumpers).
+a collision (and a bumper press on robots that have bumpers). The world's obstacles are boxes
+between their own heights: the lidar's rays hit one only where its height lies in the box's
+band, and the body collides with it only where the two overlap in height.
 """
 from __future__ import annotations
 
@@ -30,7 +33,7 @@ from ..robot import RobotSpec
 from .c_output import quiet_c_output
 from .drive import DiffDrive, WheelOdometry
 from .markers import full_scale, marker_image
-from .world import World, WorldError
+from .world import Obstacle, World, WorldError, footprint_mask
 
 with quiet_c_output():   # pybullet prints its build time on import
     import pybullet as pb
@@ -44,6 +47,8 @@ PENETRATION_TOL_M = 1e-4   # deeper than this, a move is blocked
 RELEASE_M = 0.005          # a contact lasts until the robot is this far from every wall
 BUMPER_SIDES = ("left", "centre", "right")   # kobuki_msgs/BumperEvent LEFT=0, CENTER=1, RIGHT=2
 WALL_RGBA = (0.82, 0.80, 0.76, 1.0)
+OBSTACLE_RGBA = (0.55, 0.36, 0.22, 1.0)   # furniture, steps: apart from the walls in the camera
+DEPTH_NEAR_M = 0.05        # the depth render's near clipping plane (below every range_min_m)
 FLOOR_RGBA = (0.45, 0.45, 0.47, 1.0)
 
 
@@ -73,7 +78,10 @@ class SimSettings:
     gyro_scale_error: float = 0.015      # the gyro's scale factor error (fraction of the true rate)
     gyro_bias_radps: float = 0.00005     # its bias left after the drivers' start-up calibration
     camera_rate_hz: float = 5.0          # 0 = no camera; rendered only when due
-    camera_renderer: str = "egl"         # egl (PyBullet's EGL plugin on Mesa) | tiny (TinyRenderer)
+    depth_rate_hz: float = 2.5           # 0 = no depth camera (robots with one: the TurtleBot 2)
+    depth_points_stride_px: int = 2      # camera/depth/points: every this many pixels' point
+    camera_renderer: str = "egl"         # the RGB camera's: egl (PyBullet's EGL plugin on Mesa) | tiny
+                                         # (TinyRenderer); the depth camera alone: always tiny
     ground_truth_rate_hz: float = 10.0
     clock_rate_hz: float = 20.0          # /clock (per sim s), at most physics_hz: every node with
                                          # use_sim_time handles each message
@@ -93,6 +101,8 @@ class SimSettings:
                 f"must be gyro or wheels, got {self.odom_heading!r}")
         require(abs(self.gyro_scale_error) < 0.5, src, "gyro_scale_error", "must be within +-0.5 (a fraction)")
         require(self.camera_rate_hz >= 0.0, src, "camera_rate_hz", "must be >= 0")
+        require(self.depth_rate_hz >= 0.0, src, "depth_rate_hz", "must be >= 0")
+        require(self.depth_points_stride_px >= 1, src, "depth_points_stride_px", "must be >= 1")
         require(self.camera_renderer in ("egl", "tiny"), src, "camera_renderer", "must be egl or tiny")
 
 
@@ -101,6 +111,23 @@ class BumperEvent:
     side: int      # 0 left, 1 centre, 2 right
     pressed: bool
     stamp_s: float
+
+
+def _z_depth(zbuf: np.ndarray, near_m: float, far_m: float) -> np.ndarray:
+    """OpenGL z-buffer values d in [0, 1] of a perspective projection -> z-depth along the
+    optical axis (m), float32: z = far near / (far - (far - near) d); d = 1 (nothing drawn) is far."""
+    d = zbuf.astype(np.float64)
+    return (far_m * near_m / (far_m - (far_m - near_m) * d)).astype(np.float32)
+
+
+def _shared_stride(robot: RobotSpec) -> int:
+    """k when the RGB image is k times the depth image's size in both axes (one render can
+    serve both), else 0."""
+    cam, dep = robot.camera, robot.depth_camera
+    if cam is None or dep is None or cam.width_px % dep.width_px:
+        return 0
+    k = cam.width_px // dep.width_px
+    return k if cam.height_px == k * dep.height_px else 0
 
 
 def yaw_quaternion(yaw: float) -> tuple:
@@ -113,18 +140,25 @@ class Simulator:
         self.dt = 1.0 / settings.physics_hz
         self.steps = 0
         seeds = np.random.SeedSequence(settings.seed).spawn(4)
-        self._rng_lidar, self._rng_odom, self._rng_imu, _ = (np.random.default_rng(s) for s in seeds)
+        self._rng_lidar, self._rng_odom, self._rng_imu, self._rng_depth = (np.random.default_rng(s) for s in seeds)
         self.camera_on = robot.camera is not None and settings.camera_rate_hz > 0
+        self.depth_on = robot.depth_camera is not None and settings.depth_rate_hz > 0
+        self.renders = self.camera_on or self.depth_on   # visual shapes, floor and tags needed
+        self._depth_stride = _shared_stride(robot)
         self.client = pb.connect(pb.DIRECT)
         pb.setGravity(0, 0, 0, physicsClientId=self.client)
         self._renderer = pb.ER_TINY_RENDERER
         self._first_frame = True
+        # EGL for the RGB camera; the depth camera alone renders with TinyRenderer, ~4x cheaper
+        # at its 160 x 120 than EGL on llvmpipe, whose cost hardly falls below 640 x 480's
         if self.camera_on and settings.camera_renderer == "egl":
             self._load_egl()   # before any body exists: the plugin only sees bodies made after it
         self.wall_boxes = self._build_walls()
+        for box in world.obstacles:
+            self._build_box(box)
         self._robot_id = self._build_robot()
         self._tmp = tempfile.TemporaryDirectory(prefix="turtlebot_recon_sim_")
-        if self.camera_on:
+        if self.renders:
             self._build_floor()
             for tag in world.tags:
                 self._build_tag(tag)
@@ -152,6 +186,8 @@ class Simulator:
                          "ground_truth": settings.ground_truth_rate_hz, "clock": settings.clock_rate_hz}
         if self.camera_on:
             self._periods["camera"] = settings.camera_rate_hz
+        if self.depth_on:
+            self._periods["depth"] = settings.depth_rate_hz
         self._periods = {k: max(1, round(settings.physics_hz / hz)) for k, hz in self._periods.items()}
 
     # ---------------------------------------------------------------- construction
@@ -169,9 +205,9 @@ class Simulator:
             self._renderer = pb.ER_BULLET_HARDWARE_OPENGL
 
     def _build_walls(self) -> int:
-        """One static box per merged rectangle of solid cells; returns the box count."""
+        """One static box per merged rectangle of wall cells; returns the box count."""
         w, res, h = self.world, self.world.resolution, self.world.wall_height
-        rects = _native.merge_rectangles(w.solid.astype(np.uint8))
+        rects = _native.merge_rectangles(w.walls.astype(np.uint8))
         shapes: dict = {}
         for row, col, nr, nc in rects:
             half = (0.5 * nc * res, 0.5 * nr * res, 0.5 * h)
@@ -179,7 +215,7 @@ class Simulator:
             if key not in shapes:
                 coll = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
                 vis = (pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=WALL_RGBA,
-                                            physicsClientId=self.client) if self.camera_on else -1)
+                                            physicsClientId=self.client) if self.renders else -1)
                 shapes[key] = (coll, vis)
             coll, vis = shapes[key]
             body = pb.createMultiBody(
@@ -189,6 +225,23 @@ class Simulator:
             pb.setCollisionFilterGroupMask(body, -1, WORLD_GROUP, WORLD_GROUP | ROBOT_GROUP,
                                           physicsClientId=self.client)
         return len(rects)
+
+    def _build_box(self, box: Obstacle) -> int:
+        """A static box over the footprint between z_min and z_max, in the walls' collision
+        group (the lidar's rays and the body's contacts hit it), drawn when a camera renders.
+        Returns its body id."""
+        half = (0.5 * (box.x1 - box.x0), 0.5 * (box.y1 - box.y0), 0.5 * (box.z_max - box.z_min))
+        coll = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
+        rgba = WALL_RGBA if box.z_min == 0.0 and box.z_max >= self.world.wall_height else OBSTACLE_RGBA
+        vis = (pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=rgba, physicsClientId=self.client)
+               if self.renders else -1)
+        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=vis,
+                                  basePosition=(0.5 * (box.x0 + box.x1), 0.5 * (box.y0 + box.y1),
+                                                0.5 * (box.z_min + box.z_max)),
+                                  physicsClientId=self.client)
+        pb.setCollisionFilterGroupMask(body, -1, WORLD_GROUP, WORLD_GROUP | ROBOT_GROUP,
+                                      physicsClientId=self.client)
+        return body
 
     def _build_robot(self) -> int:
         r = self.robot
@@ -273,7 +326,8 @@ class Simulator:
         """
         self._place(pose)
         reach = self.robot.radius_m + RELEASE_M
-        lo, hi = (pose[0] - reach, pose[1] - reach, 0.0), (pose[0] + reach, pose[1] + reach, 1.0)
+        top = self.robot.body_height_m + 0.01 + RELEASE_M        # _place's body top, and the margin
+        lo, hi = (pose[0] - reach, pose[1] - reach, 0.0), (pose[0] + reach, pose[1] + reach, top)
         best = None
         for body, _ in pb.getOverlappingObjects(lo, hi, physicsClientId=self.client) or ():
             if body == self._robot_id:
@@ -415,53 +469,101 @@ class Simulator:
 
     def render_camera(self) -> np.ndarray:
         """RGB image (height, width, 3) uint8 from the camera's current pose (pinhole, no distortion)."""
+        return self.render_views(rgb=True, depth=False)[0]
+
+    def depth_matrix(self) -> np.ndarray:
+        """The depth camera's K: the RGB camera's field of view at the depth image's size."""
+        dep = self.robot.depth_camera
+        f = dep.fx_px(self.robot.camera.hfov_rad)
+        return np.array([[f, 0.0, 0.5 * (dep.width_px - 1)], [0.0, f, 0.5 * (dep.height_px - 1)], [0.0, 0.0, 1.0]])
+
+    def render_views(self, rgb: bool, depth: bool) -> tuple:
+        """(RGB image or None, depth image or None) from the camera's current pose. The depth
+        image is float32 (height, width) metres of z-depth along the optical axis (REP 118), with
+        the sensor's noise, NaN where nothing returns within [range_min_m, range_max_m]. When
+        both are asked for and the RGB size is a whole multiple k of the depth size, one render
+        serves both: the depth is the RGB frame's z-buffer sampled every k pixels (the pixel
+        k // 2 of each k x k block, whose centre is 0.5 / k of a depth pixel right of and below
+        the block's: 0.125 px at k 4)."""
+        cam = self.robot.camera
+        image = z_m = None
+        if rgb:
+            rgba, zbuf = self._render(cam.width_px, cam.height_px, cam.near_m, cam.far_m)
+            image = rgba[..., :3].copy()
+            if depth and self._depth_stride:
+                k = self._depth_stride
+                z_m = _z_depth(zbuf[k // 2::k, k // 2::k], cam.near_m, cam.far_m)
+        if depth and z_m is None:
+            z_m = self._render_z()
+        return image, (self._depth_reading(z_m) if depth else None)
+
+    def true_depth(self) -> np.ndarray:
+        """The depth image without noise (its own render at the depth camera's size): float32
+        metres, NaN outside the sensor's range."""
+        dep = self.robot.depth_camera
+        z_m = self._render_z()
+        return np.where((z_m >= dep.range_min_m) & (z_m <= dep.range_max_m), z_m, np.nan).astype(np.float32)
+
+    def _render_z(self) -> np.ndarray:
+        dep = self.robot.depth_camera
+        near_m, far_m = DEPTH_NEAR_M, 1.05 * dep.range_max_m   # beyond far: nothing drawn, no return
+        _, zbuf = self._render(dep.width_px, dep.height_px, near_m, far_m)
+        return _z_depth(zbuf, near_m, far_m)
+
+    def _depth_reading(self, z_m: np.ndarray) -> np.ndarray:
+        """True z-depth (m) -> what the sensor reports: axial noise, NaN out of range."""
+        dep = self.robot.depth_camera
+        sigma = dep.noise_std_m + dep.noise_quad_per_m * np.square(np.minimum(z_m, dep.range_max_m))
+        noisy = z_m + self._rng_depth.standard_normal(z_m.shape) * sigma
+        valid = (noisy >= dep.range_min_m) & (noisy <= dep.range_max_m)
+        return np.where(valid, noisy, np.nan).astype(np.float32)
+
+    def _render(self, width: int, height: int, near_m: float, far_m: float) -> tuple:
+        """(RGBA uint8 (height, width, 4), z-buffer float32 (height, width) in [0, 1]) of the
+        camera's view at the camera's field of view, between the clipping planes near_m and far_m."""
         cam = self.robot.camera
         cx, cy, yaw = self.sensor_pose(cam.x_m, cam.y_m)
         eye = (cx, cy, cam.z_m)
         target = (cx + math.cos(yaw), cy + math.sin(yaw), cam.z_m)
         view = pb.computeViewMatrix(eye, target, (0, 0, 1), physicsClientId=self.client)
-        proj = pb.computeProjectionMatrixFOV(math.degrees(cam.vfov_rad), cam.width_px / cam.height_px,
-                                             cam.near_m, cam.far_m, physicsClientId=self.client)
+        vfov = 2.0 * math.atan(math.tan(0.5 * cam.hfov_rad) * height / width)
+        proj = pb.computeProjectionMatrixFOV(math.degrees(vfov), width / height, near_m, far_m,
+                                             physicsClientId=self.client)
         # the EGL plugin prints its GL vendor at the first frame
         with quiet_c_output() if self._first_frame else contextlib.nullcontext():
-            _, _, rgba, _, _ = pb.getCameraImage(cam.width_px, cam.height_px, view, proj, shadow=0,
-                                                 flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
-                                                 physicsClientId=self.client)
+            _, _, rgba, zbuf, _ = pb.getCameraImage(width, height, view, proj, shadow=0,
+                                                    flags=pb.ER_NO_SEGMENTATION_MASK, renderer=self._renderer,
+                                                    physicsClientId=self.client)
         self._first_frame = False
-        return np.asarray(rgba, dtype=np.uint8).reshape(cam.height_px, cam.width_px, 4)[..., :3].copy()
+        return (np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4),
+                np.asarray(zbuf, dtype=np.float32).reshape(height, width))
 
-    def add_box(self, x0: float, y0: float, x1: float, y1: float) -> None:
-        """A wall box over [x0, x1] x [y0, y1] (world frame, m) from now on, as tall as the
-        walls: a door closing, an obstacle moved into the way. The lidar sees it, the body
-        collides with it and the world's grid (clearance, ``world.free``) includes it.
-        ValueError, with nothing changed, if the box is not finite, is thinner than 1 mm or
-        would overlap the robot."""
-        if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
-            raise ValueError(f"add_box: corners must be finite, got ({x0}, {y0}), ({x1}, {y1})")
+    def add_box(self, x0: float, y0: float, x1: float, y1: float, z_min: float = 0.0,
+                z_max: float | None = None) -> None:
+        """A box over [x0, x1] x [y0, y1] (world frame, m) from now on, between the heights
+        z_min and z_max (m; None: the walls' height): a door closing, an obstacle moved into the
+        way. The lidar sees it at heights in its band, the body collides with it where they
+        overlap and the world's grid (clearance, ``world.free``) includes its footprint.
+        ValueError, with nothing changed, if the box is not finite, is thinner than 1 mm, has
+        no height or would overlap the robot."""
+        z_max = self.world.wall_height if z_max is None else z_max
+        if not all(math.isfinite(v) for v in (x0, y0, x1, y1, z_min, z_max)):
+            raise ValueError(f"add_box: corners and heights must be finite, got ({x0}, {y0}), ({x1}, {y1}), "
+                             f"z {z_min}-{z_max}")
         x0, x1, y0, y1 = min(x0, x1), max(x0, x1), min(y0, y1), max(y0, y1)
         if x1 - x0 < 1e-3 or y1 - y0 < 1e-3:
             raise ValueError(f"add_box: ({x0}, {y0})-({x1}, {y1}) is thinner than 1 mm")
-        h = self.world.wall_height
-        half = (0.5 * (x1 - x0), 0.5 * (y1 - y0), 0.5 * h)
-        coll = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
-        vis = (pb.createVisualShape(pb.GEOM_BOX, halfExtents=half, rgbaColor=WALL_RGBA,
-                                    physicsClientId=self.client) if self.camera_on else -1)
-        body = pb.createMultiBody(baseMass=0, baseCollisionShapeIndex=coll, baseVisualShapeIndex=vis,
-                                  basePosition=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * h),
-                                  physicsClientId=self.client)
-        pb.setCollisionFilterGroupMask(body, -1, WORLD_GROUP, WORLD_GROUP | ROBOT_GROUP,
-                                      physicsClientId=self.client)
+        if not 0.0 <= z_min < z_max:
+            raise ValueError(f"add_box: heights must satisfy 0 <= z_min < z_max, got {z_min}-{z_max}")
+        box = Obstacle(x0, y0, x1, y1, z_min, z_max)
+        body = self._build_box(box)
         contact = self._nearest_contact(self.pose)
         if contact is not None and contact[0] < -PENETRATION_TOL_M:
             pb.removeBody(body, physicsClientId=self.client)
             raise ValueError(f"add_box: ({x0:.3f}, {y0:.3f})-({x1:.3f}, {y1:.3f}) overlaps the robot")
         w = self.world
-        free = w.free.copy()
-        rows, cols = free.shape
-        r0, c0 = w.cell(x0, y0)
-        r1, c1 = w.cell(x1 - 1e-9, y1 - 1e-9)
-        free[max(r0, 0):max(min(r1 + 1, rows), 0), max(c0, 0):max(min(c1 + 1, cols), 0)] = False
-        self.world = dataclasses.replace(w, free=free)
+        self.world = dataclasses.replace(w, free=w.free & ~footprint_mask(w, (box,)), obstacles=w.obstacles + (box,),
+                                         wall_free=w.free if w.wall_free is None else w.wall_free)
         self._clearance = self.world.clearance()
         self.wall_boxes += 1
 

@@ -1,4 +1,5 @@
-"""Simulator worlds (DESIGN §4): a map_server map plus optional start, wall height and tags.
+"""Simulator worlds (DESIGN §4): a map_server map plus optional start, wall height, tags and
+obstacles with a height band (boxes solid only between two heights: a step, a bed frame).
 
 Grids here follow nav_msgs/OccupancyGrid order: row 0 is the bottom of the image (smallest y),
 cell (i, j) has its centre at ``origin + ((j + 0.5) * res, (i + 0.5) * res)``. Every pixel that
@@ -24,8 +25,9 @@ from ..paths import SHARE_DIR
 log = logging.getLogger(__name__)
 
 WORLDS_DIR = SHARE_DIR / "worlds"
-EXTRA_KEYS = {"start", "wall_height", "tags"}
+EXTRA_KEYS = {"start", "wall_height", "tags", "obstacles"}
 TAG_KEYS = {"id", "family", "x", "y", "z", "yaw", "size"}
+OBSTACLE_KEYS = ("x0", "y0", "x1", "y1", "z_min", "z_max")   # all required, in metres
 START_CLEARANCE_M = 0.35   # an automatic start leaves this much room around the robot centre
 
 
@@ -54,6 +56,19 @@ class Tag:
 
 
 @dataclass(frozen=True)
+class Obstacle:
+    """A box over the footprint [x0, x1] x [y0, y1] (world frame, m, axis-aligned), solid only
+    between the heights z_min and z_max (m above the floor): a 0.15 m step is (0, 0.15), a bed
+    frame a lidar passes beneath (0.30, 0.50)."""
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    z_min: float
+    z_max: float
+
+
+@dataclass(frozen=True)
 class World:
     name: str
     path: Path
@@ -63,10 +78,19 @@ class World:
     wall_height: float         # m
     start: tuple               # (x, y, yaw)
     tags: tuple                # Tag, ...
+    obstacles: tuple = ()      # Obstacle, ...: their footprints are not free (F, the metrics)
+    wall_free: np.ndarray | None = None   # the image's free cells, before the obstacles'
+                                          # footprints (None: the same as ``free``)
 
     @property
     def solid(self) -> np.ndarray:
         return ~self.free
+
+    @property
+    def walls(self) -> np.ndarray:
+        """The cells that are solid from the floor to wall_height: the image's walls, without
+        the obstacles' footprints (the simulator builds those at their own heights)."""
+        return ~(self.free if self.wall_free is None else self.wall_free)
 
     @property
     def size_m(self) -> tuple:
@@ -142,6 +166,13 @@ def _load_world(src: Path) -> World:
         raise WorldError(f"{src}: key 'wall_height': must be positive, got {wall_height}")
     world = World(name=src.stem, path=src, resolution=res, origin=(float(origin[0]), float(origin[1])),
                   free=free, wall_height=wall_height, start=(0.0, 0.0, 0.0), tags=())
+    raw = meta.get("obstacles") or []
+    if not isinstance(raw, list):
+        raise WorldError(f"{src}: key 'obstacles': expected a list of boxes, got {raw!r}")
+    obstacles = tuple(_obstacle(world, i, o, src) for i, o in enumerate(raw))
+    if obstacles:
+        world = World(**{**world.__dict__, "free": free & ~footprint_mask(world, obstacles),
+                         "obstacles": obstacles, "wall_free": free})
     start = _start(world, meta.get("start"), src)
     tags = tuple(_tag(world, i, t, src) for i, t in enumerate(meta.get("tags") or []))
     ids = [(marker_set(t.family), t.id) for t in tags]
@@ -216,6 +247,47 @@ def _tag(world: World, i: int, t, src: Path) -> Tag:
                  math.degrees(math.remainder(tag.yaw, math.pi / 2)), out)
         tag = Tag(tag.id, tag.family, tag.x + out * nx, tag.y + out * ny, tag.z, tag.yaw, tag.size)
     return tag
+
+
+def _obstacle(world: World, i: int, o, src: Path) -> Obstacle:
+    where = f"{src}: key 'obstacles[{i}]'"
+    if not isinstance(o, dict):
+        raise WorldError(f"{where}: expected a mapping with {list(OBSTACLE_KEYS)}, got {o!r}")
+    missing = [k for k in OBSTACLE_KEYS if k not in o]
+    if missing:
+        raise WorldError(f"{where}: missing {missing}")
+    unknown = sorted(set(o) - set(OBSTACLE_KEYS))
+    if unknown:
+        raise WorldError(f"{where}: unknown key(s) {unknown} (known: {list(OBSTACLE_KEYS)})")
+    for k in OBSTACLE_KEYS:
+        v = o[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise WorldError(f"{where}: '{k}' must be a finite number (m), got {v!r}")
+    box = Obstacle(**{k: float(o[k]) for k in OBSTACLE_KEYS})
+    if not (box.x0 < box.x1 and box.y0 < box.y1):
+        raise WorldError(f"{where}: the footprint needs x0 < x1 and y0 < y1 (m), got "
+                         f"({box.x0}, {box.y0})-({box.x1}, {box.y1})")
+    if box.z_min < 0.0:
+        raise WorldError(f"{where}: z_min {box.z_min} m is below the floor (must be >= 0)")
+    if box.z_min >= box.z_max:
+        raise WorldError(f"{where}: z_min {box.z_min} m must be below z_max {box.z_max} m")
+    (x_lo, y_lo), (sx, sy) = world.origin, world.size_m
+    if box.x1 <= x_lo or box.y1 <= y_lo or box.x0 >= x_lo + sx or box.y0 >= y_lo + sy:
+        raise WorldError(f"{where}: ({box.x0}, {box.y0})-({box.x1}, {box.y1}) lies outside the map "
+                         f"({x_lo}, {y_lo})-({x_lo + sx}, {y_lo + sy})")
+    return box
+
+
+def footprint_mask(world: World, boxes) -> np.ndarray:
+    """bool grid of ``world``'s shape: True on every cell that a box's footprint overlaps
+    (a cell partly under a box is not free: the clearance and F stay conservative)."""
+    mask = np.zeros(world.free.shape, bool)
+    rows, cols = mask.shape
+    for b in boxes:
+        r0, c0 = world.cell(b.x0, b.y0)
+        r1, c1 = world.cell(b.x1 - 1e-9, b.y1 - 1e-9)
+        mask[max(r0, 0):max(min(r1 + 1, rows), 0), max(c0, 0):max(min(c1 + 1, cols), 0)] = True
+    return mask
 
 
 def _clear_of_wall(world: World, tag: Tag, step_m: float = 0.002, most_m: float = 0.1) -> float:
