@@ -65,14 +65,7 @@ def plan_sampling(occupancy: np.ndarray, resolution: float, origin: Sequence[flo
         turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
         reverse_cost_factor=settings.reverse_cost_factor, occupied_threshold=OCCUPIED_THRESH,
         simplify=simplify)
-    if not out["solved"]:
-        raise PlanningError(f"plan_sampling ({planner}): {out['reason']}")
-    poses = out["poses"]
-    poses[:, 0] += ox
-    poses[:, 1] += oy
-    return SampledPath(poses=poses, reversed=out["reversed"], length_m=out["length_m"],
-                       reversed_m=out["reversed_m"], turned_rad=out["turned_rad"],
-                       cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
+    return _sampled_path(out, (ox, oy), f"plan_sampling ({planner})")
 
 
 def shortcut_turn_drive(occupancy: np.ndarray, resolution: float, origin: Sequence[float], robot: RobotSpec,
@@ -92,14 +85,20 @@ def shortcut_turn_drive(occupancy: np.ndarray, resolution: float, origin: Sequen
         occupancy, resolution, pts, float(start_yaw), **footprint_args(robot), margin_m=settings.margin_m,
         turn_margin_m=settings.turn_margin_m, turn_cost_m_per_rad=settings.turn_cost_m_per_rad,
         reverse_cost_factor=settings.reverse_cost_factor, occupied_threshold=OCCUPIED_THRESH)
+    return _sampled_path(out, (ox, oy), "shortcut_turn_drive")
+
+
+def _sampled_path(out: dict, origin: tuple, caller: str) -> SampledPath:
+    """The C++ result ``out`` (poses from the grid's corner) as a SampledPath in the grid's frame;
+    PlanningError naming ``caller`` and the reason when it is not solved."""
     if not out["solved"]:
-        raise PlanningError(f"shortcut_turn_drive: {out['reason']}")
+        raise PlanningError(f"{caller}: {out['reason']}")
     poses = out["poses"]
-    poses[:, 0] += ox
-    poses[:, 1] += oy
+    poses[:, 0] += origin[0]
+    poses[:, 1] += origin[1]
     return SampledPath(poses=poses, reversed=out["reversed"], length_m=out["length_m"],
                        reversed_m=out["reversed_m"], turned_rad=out["turned_rad"],
-                       cost_m=out["cost_m"], solve_s=0.0, simplify_s=0.0)
+                       cost_m=out["cost_m"], solve_s=out["solve_s"], simplify_s=out["simplify_s"])
 
 
 def as_lattice_path(path: SampledPath, resolution: float, origin: Sequence[float]) -> LatticePath:
