@@ -302,8 +302,10 @@ def test_an_ompl_planner_drives_the_box_round_the_corner(planner):
     occ[10:19, 2:41] = 0
     occ[10:75, 32:41] = 0
     occ[6:22, 28:44] = 0
+    # 1 s of solve time: at 0.3 s on a loaded 2-core machine BIT* failed 2 runs in 40 (a path
+    # whose turns were not clear; one the box could not back out of at the goal)
     nav = Navigation(NavigationSettings(controller="pure_pursuit", planner=planner,
-                                        sampling_budget_s=0.3), WAFFLE)
+                                        sampling_budget_s=1.0), WAFFLE)
     nav.update_map(occ, RES, (0.0, 0.0))
     nav.set_goal(1.825, 3.4)
     nav.step(0.0, (0.4, 0.725, 0.0), (0.0, 0.0))
