@@ -44,12 +44,11 @@ namespace {
 using Pose = std::array<double, 3>;
 enum class Drive { kBlocked, kForward, kBackward };
 
-// The planners evaluate costs and motions millions of times a second: std::remainder and
-// std::hypot (with their care for exact halves and overflow) took a fifth of RRT*'s time in
-// the maze, so these two do the same for angles and distances in a building more cheaply.
-double wrap(double a) {  // to [-pi, pi]
-  return a - 2.0 * kPi * std::floor((a + kPi) / (2.0 * kPi));
-}
+// Exact (std::remainder): OMPL asserts that an SO(2) value lies within [-pi, pi] to one
+// epsilon, and a - 2 pi floor(...) misses that by rounding (an abort in RRT-Connect's solve).
+double wrap(double a) { return std::remainder(a, 2.0 * kPi); }
+// The planners evaluate distances millions of times a second; std::hypot's care for overflow
+// is not needed in a building.
 double norm(double dx, double dy) { return std::sqrt(dx * dx + dy * dy); }
 
 // OMPL's SO(2) holds [-pi, pi).
