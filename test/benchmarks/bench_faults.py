@@ -48,11 +48,11 @@ from common import TOP, write  # noqa: E402
 
 OUT = TOP / "output" / "bench" / "faults"
 RESULTS = TOP / "docs" / "results"
-BUDGET_S = 200.0            # sim s of exploration per case: the house, about two thirds seen
+BUDGET_S = 450.0            # sim s of exploration per case: the house nearly whole (99 % at ~413 s without faults)
 KILL_AFTER_WALL_S = 10.0    # wall s after "explorer: started": a few goals into the run
 FILL_AFTER_WALL_S = 10.0
 FAULT_AT_S = 30.0           # sim s after the explorer's start, for the injector's timed faults
-COVERAGE_KEPT = 0.85        # a fault that leaves less than this share of the fault-free coverage cost it
+COVERAGE_KEPT = 0.9         # a fault that leaves less than this share of the fault-free coverage cost it
 WALL_LIMIT_S = 420.0        # wall s per launch, then SIGINT (a hung run is recorded as such)
 SOAK_WORLDS = ("house", "maze", "office", "arena", "doors", "garden")
 
@@ -75,16 +75,22 @@ CASES = {
     "kill_evaluator": ("kill", "evaluator", MAP, "end"),
     "stall_2s": ("inject", ["--fault", "stall", "--duration-s", "2"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
     "stall_10s": ("inject", ["--fault", "stall", "--duration-s", "10"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
+    "no_scan": ("inject", ["--fault", "drop", "--fraction", "1.0"], MAP + ["bridge_scan:=scan_raw"], "named_end"),
     "drop_20pct": ("inject", ["--fault", "drop", "--fraction", "0.2"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
     "tf_delay_0.3s": ("inject", ["--fault", "tf_delay", "--delay-s", "0.3"], MAP + ["bridge_tf:=/tf_raw"], "go_on"),
     "clock_jump": ("inject", ["--fault", "clock_jump", "--jump-s", "5"], MAP, "go_on"),
     "full_fs": ("full_fs", None, MAP, "end"),
 }
+# a node's line (WARN and above) that names the injected fault: what it must mention
+NOTICE = {"stall": r"scan", "drop": r"scan", "tf_delay": r"\bTF\b|transform|extrapolat",
+          "clock_jump": r"jump|back in time|moved backwards|went back"}
 INTENDED = {
     "restart": "the node is restarted (one line naming it, report.json node_respawns); the run goes on to its end",
     "end": "the run ends at once, exit status 1, the last line and report.json's finished_reason naming the node",
     "go_on": "the run goes on to its budget; coverage and collisions as without the fault",
+    "named_end": "the run ends (its map stands still), report.json's finished_reason naming the cause",
 }
+LIDAR_NAMED = "no scan on /scan"         # the explorer's reason when the lidar fell silent
 INTENDED_FULL_FS = ("the run ends with one line saying what could not be written (no space left), "
                     "non-zero exit; no report where none fits")
 
@@ -186,7 +192,7 @@ def rosout_lines(ros_home: Path, t0: float, t1: float) -> list:
             continue
         for line in path.read_text(errors="replace").splitlines():
             m = re.match(r"^(\d+\.\d+) (WARN|ERROR|FATAL) (\S+) \[[^\]]*\] \[topics: [^\]]*\] (.*)", line)
-            if m and t0 <= float(m.group(1)) <= t1:
+            if m and t0 <= float(m.group(1)) <= t1 and m.group(3) != "/fault_injector":
                 out.append(f"{m.group(3).lstrip('/')}: {m.group(4)[:160]}")
     return out
 
@@ -308,7 +314,8 @@ def run_case(name: str, baseline) -> dict:
             fault_window = (min(times) - 0.5, max(times) + 15.0)
         elif "dropping" in inj or "delayed" in inj:
             fault_window = (0.0, 1e9)
-    noticed = rosout_lines(case_dir / "ros_home", *fault_window) if fault == "inject" else []
+    noticed = [ln for ln in rosout_lines(case_dir / "ros_home", *fault_window)
+               if re.search(NOTICE[what[1]], ln, re.I)] if fault == "inject" else []
     written_by_evaluator = bool(report) and "written_by" not in report
     reason = (report or {}).get("finished_reason") or ""
     restarted = bool(what) and fault == "kill" and f"node {what} exited with status -9: restarting it" in log_text
@@ -318,6 +325,8 @@ def run_case(name: str, baseline) -> dict:
             else (restarted and any(what in r for r in (report or {}).get("node_respawns", [])))
     elif fault == "full_fs":
         named = "No space left" in last or "could not write" in last or "cannot write" in last
+    elif intended == "named_end":
+        named = LIDAR_NAMED in reason
     else:
         named = bool(noticed) if not ended else bool(reason) and reason != "shut down before the end"
     coverage = (report or {}).get("coverage_final")
@@ -326,9 +335,13 @@ def run_case(name: str, baseline) -> dict:
     base_col = (baseline or {}).get("collisions") or 0
     harmed = (coverage is not None and base_cov and coverage < COVERAGE_KEPT * base_cov) or \
         (collisions or 0) > base_col
-    if fault == "kill":
+    if hung:                  # it never ended by itself: the harness stopped it, nobody said why
+        named, silent = False, True
+    elif fault == "kill":
         silent = (ended and not named) or (not ended and not restarted)
     elif fault == "full_fs":
+        silent = not named
+    elif intended == "named_end":
         silent = not named
     else:
         silent = (ended and not named) or (not ended and bool(harmed) and not named)
@@ -341,6 +354,9 @@ def run_case(name: str, baseline) -> dict:
     else:
         measured = f"went on to its end (exit 0): {reason}"
     got = "restart" if restarted and not ended else ("end" if ended else "go_on")
+    if intended == "named_end" and not ended and named:
+        got = "named_end"
+        harmed = False                     # no scan, no map: the coverage is the fault's, said
     row = {
         "case": name, "fault": fault_done or fault, "node": what if fault == "kill" else None,
         "intended": INTENDED_FULL_FS if fault == "full_fs" else INTENDED[intended],

@@ -23,6 +23,7 @@ import time
 
 import rospy
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 SEED = 32                    # issue 32: the drops are the same in every run
@@ -67,8 +68,8 @@ class ScanRelay:
         self.drop, self.rng = drop, random.Random(SEED)
         self.stall = (float("inf"), float("inf"))
         self.relayed = self.dropped = 0
-        self.pub = rospy.Publisher(dst, rospy.AnyMsg, queue_size=5)
-        rospy.Subscriber(src, rospy.AnyMsg, self.on_scan, queue_size=5)
+        self.pub = rospy.Publisher(dst, LaserScan, queue_size=5)
+        rospy.Subscriber(src, LaserScan, self.on_scan, queue_size=5)
 
     def on_scan(self, m) -> None:
         now = rospy.get_time()
