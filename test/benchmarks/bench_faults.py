@@ -184,9 +184,16 @@ def fill(directory: Path) -> str:
     return ""
 
 
-def rosout_lines(ros_home: Path, t0: float, t1: float) -> list:
-    """'node: message' of the WARN/ERROR/FATAL lines on /rosout stamped within [t0, t1] sim s."""
+def rosout_lines(ros_home: Path, t0: float, t1: float, launch_log=None) -> list:
+    """'node: message' of the WARN/ERROR/FATAL lines on /rosout stamped within [t0, t1] sim s,
+    then the screen's (``launch_log``: what a node printed but did not send to /rosout, e.g.
+    tf2's "Detected jump back in time")."""
     out = []
+    if launch_log is not None:
+        for line in launch_log.read_text(errors="replace").splitlines():
+            m = re.match(r"^\[(WARN|ERROR|FATAL)\] \[[\d.]+, ([\d.]+)\]: (.*)", line)
+            if m and t0 <= float(m.group(2)) <= t1:
+                out.append(f"(screen): {m.group(3)[:160]}")
     for path in sorted((ros_home / "log").glob("*/rosout.log")):
         if path.parent.is_symlink():                  # "latest": the same file again
             continue
@@ -314,7 +321,7 @@ def run_case(name: str, baseline) -> dict:
             fault_window = (min(times) - 0.5, max(times) + 15.0)
         elif "dropping" in inj or "delayed" in inj:
             fault_window = (0.0, 1e9)
-    noticed = [ln for ln in rosout_lines(case_dir / "ros_home", *fault_window)
+    noticed = [ln for ln in rosout_lines(case_dir / "ros_home", *fault_window, launch_log=log_path)
                if re.search(NOTICE[what[1]], ln, re.I)] if fault == "inject" else []
     written_by_evaluator = bool(report) and "written_by" not in report
     reason = (report or {}).get("finished_reason") or ""
