@@ -485,6 +485,8 @@ def main() -> int:
     names = refs + [n for n in names if n not in refs]
     OUT.mkdir(parents=True, exist_ok=True)
     t_start = time.monotonic()
+    from common import commit
+    started_at = commit()             # write() stamps HEAD at the end; the runs ran on this one
     rows, baselines = [], {}
     for name in names:
         row = run_case(name, baselines.get(reference_of(CASES[name][2])))
@@ -505,7 +507,7 @@ def main() -> int:
         "cases_not_as_intended": [r["case"] for r in ran if not r["as_intended"]],
         "hung_runs": sum(r["hung"] for r in ran),
         "fault_leaked_processes": sum(len(r["leaked_processes"]) + r["port_still_listening"] for r in ran),
-        "budget_s": BUDGET_S, "world": "house", "rows": rows,
+        "budget_s": BUDGET_S, "world": "house", "rows": rows, "commit_at_start": started_at,
     }
     if not a.no_parallel:
         figures.update(parallel_runs())
