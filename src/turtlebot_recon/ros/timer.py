@@ -21,10 +21,16 @@ import rospy
 
 
 def quiet_on_shutdown(callback: Callable) -> Callable:
-    """``callback`` that returns instead of raising rospy.ROSException once ROS is shutting down."""
+    """``callback`` that returns instead of raising rospy.ROSException once ROS is shutting down,
+    and skips the cycle in which sim time jumped back (a sleep inside it, e.g. a TF lookup's
+    timeout, raises; rospy would end the timer's thread), with a warning."""
     def run(*args, **kwargs):
         try:
             return callback(*args, **kwargs)
+        except rospy.exceptions.ROSTimeMovedBackwardsException as exc:
+            rospy.logwarn("%s: sim time jumped back %.2f s during a cycle: that cycle skipped",
+                          rospy.get_name().lstrip("/"), exc.time)
+            return None
         except rospy.ROSException:
             # is_shutdown() turns true only after rospy's client hooks have closed the topics;
             # a publish in between meets a closed topic while is_shutdown() is still false
