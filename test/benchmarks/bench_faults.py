@@ -316,7 +316,7 @@ def run_case(name: str, baseline) -> dict:
     if fault == "inject":
         inj = (case_dir / "inject.log").read_text(errors="replace")
         fault_done = " / ".join(ln[len("[inject] "):] for ln in inj.splitlines() if ln.startswith("[inject]"))
-        times = [float(t) for t in re.findall(r"t=([\d.]+) s", inj)]
+        times = [float(t) for t in re.findall(r"(?:t=|to )([\d.]+) s", inj)]     # a jump's both ends
         if times:
             fault_window = (min(times) - 0.5, max(times) + 15.0)
         elif "dropping" in inj or "delayed" in inj:
