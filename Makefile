@@ -22,7 +22,7 @@ RUN_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,ST
 WANDER_ARGS = $(strip $(call arg,WORLD,world) $(call arg,ROBOT,robot) $(call arg,RTF,rtf) $(call arg,SEED,seed) \
   $(call arg,DURATION,duration) $(call arg,RVIZ,rviz))
 
-.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav bench-plan slam-log slam-eval worlds clean
+.PHONY: help setup build test run wander sim bench-sim bench-map bench-tags bench-explore bench-slam bench-control bench-nav bench-plan bench-faults slam-log slam-eval worlds clean
 
 help:
 	@echo "make test        install everything needed, build, run all tests (pytest + rostest)"
@@ -50,6 +50,9 @@ help:
 	@echo "                 (WORLDS=house,../shared/worlds/depot.yaml PAIRS=N PLANNERS=lattice,astar_shortcut,rrt_seed003,ompl"
 	@echo "                 ROBOTS=turtlebot3_burger,... SEED=N; EXPLORE_3D=0: without the 3-D check, a TurtleBot 2 exploring"
 	@echo "                 the house with low furniture, OctoMap layer on and off)"
+	@echo "make bench-faults  faults injected during short explorations (each node killed, scans stalled/dropped, TF"
+	@echo "                 delayed, the clock jumped back, a full disk), two runs side by side, the bad-input catalogue"
+	@echo "                 -> output/bench/faults.json, a copy in docs/results/ (CASES=a,b SOAK=N SEED=N)"
 	@echo "make bench-explore  recon and the oracle x worlds x 3 seeds, 2 at a time (<= 1 h) -> output/bench/explore.json,"
 	@echo "                 plots in output/bench/explore/, a copy in docs/results/ to commit; held-out rows (garden, doors,"
 	@echo "                 cluttered with the burger and the waffle_pi: 1 seed) reported apart (heldout_*)"
@@ -159,6 +162,14 @@ bench-explore: build
 	  $(if $(BUDGETS),--budgets $(BUDGETS)) $(if $(ROBOTS),--robots $(ROBOTS)) $(if $(RESUME),--resume) $(if $(REPORT),--report) \
 	  $(if $(DRY_RUN),--dry-run) $(if $(SWEEP),--name $(SWEEP)) $(if $(LAUNCH_ARGS),--launch-args "$(LAUNCH_ARGS)") \
 	  $(if $(FULL),--full) $(if $(BASELINES),--baselines) $(if $(TABLE),--table) --copy-results
+
+# Faults injected during short house explorations (docs/faults.md): each node killed, scans
+# stalled / dropped, TF delayed, the clock jumped back, the run directory's disk full; two runs
+# side by side; the bad-input catalogue -> output/bench/faults.json (12 min on 2 cores, 2026-12-06; CASES=a,b a subset,
+# SOAK=N adds N short explorations of random worlds and seeds, counting crashes and leaks).
+bench-faults: build
+	@$(ENV) python test/benchmarks/bench_faults.py $(if $(CASES),--cases $(CASES)) $(if $(SOAK),--soak $(SOAK)) \
+	  $(if $(filter command line environment,$(origin SEED)),--seed $(SEED)) --copy-results
 
 slam-log: build
 	@[ -n "$(LOG)" ] || { echo "slam-log: give LOG=FILE (a .bag or a CARMEN log) and OUTPUT=DIR"; exit 2; }

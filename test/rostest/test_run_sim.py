@@ -143,7 +143,8 @@ def node_pid(name: str, port: int):
     return None
 
 
-@pytest.mark.parametrize("node", ["navigator", "evaluator", "Ctrl-C"])
+# the explorer, not the navigator: a killed navigator is restarted (docs/faults.md, test_faults.py)
+@pytest.mark.parametrize("node", ["explorer", "evaluator", "Ctrl-C"])
 def test_a_node_killed_mid_run_is_named_in_the_report(tmp_path, node):
     """Issue 32, nothing lost: a node killed mid-run ends it loudly, and report.json names the
     node; where the evaluator itself died, tools/launch writes the report from what the other

@@ -1,0 +1,78 @@
+"""tools/launch's Watcher with respawnable nodes (docs/faults.md): roslaunch reports a dead
+respawnable process every 0.1 s until it restarts it; each death is one restart, said once,
+and the death after MAX_RESPAWNS restarts ends the run like any other failure."""
+import importlib.machinery
+import importlib.util
+import io
+from pathlib import Path
+
+TOP = Path(__file__).resolve().parents[2]
+
+
+def tools_launch():
+    loader = importlib.machinery.SourceFileLoader("tools_launch", str(TOP / "tools" / "launch"))
+    spec = importlib.util.spec_from_loader("tools_launch", loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+class Proc:
+    """The process monitor's process: its spawn count grows with each restart."""
+
+    def __init__(self):
+        self.spawn_count = 1
+
+
+def watcher_with(launch, proc):
+    w = launch.Watcher("evaluator", "run")
+    w.watch_respawns(["navigator"], lambda name: proc if name == "navigator-5" else None)
+    return w
+
+
+def test_one_death_is_one_restart_however_often_roslaunch_reports_it():
+    launch = tools_launch()
+    launch.TERMINAL = out = io.StringIO()
+    proc = Proc()
+    w = watcher_with(launch, proc)
+    for _ in range(10):                       # 1 s of respawn_delay: reported every 0.1 s
+        w.process_died("navigator-5", -9)
+    assert w.respawns == [("navigator", -9)]
+    assert w.verdict() is None                # the run goes on
+    assert out.getvalue().splitlines() == [
+        "[run] node navigator exited with status -9: restarting it (restart 1 of at most 3; "
+        "it holds no state worth keeping)"]
+
+
+def test_a_node_that_keeps_dying_ends_the_run():
+    launch = tools_launch()
+    launch.TERMINAL = io.StringIO()
+    proc = Proc()
+    w = watcher_with(launch, proc)
+    for death in range(launch.MAX_RESPAWNS):
+        w.process_died("navigator-5", 1)
+        proc.spawn_count += 1                 # roslaunch restarted it
+        assert w.verdict() is None, death
+    w.process_died("navigator-5", 1)          # one death too many
+    assert len(w.respawns) == launch.MAX_RESPAWNS
+    assert w.verdict() == ("failed", "navigator-5", 1)
+
+
+def test_a_node_not_marked_respawn_still_ends_the_run():
+    launch = tools_launch()
+    launch.TERMINAL = io.StringIO()
+    w = watcher_with(launch, Proc())
+    w.process_died("mapper-3", -9)
+    assert w.respawns == [] and w.verdict() == ("failed", "mapper-3", -9)
+
+
+def test_the_launch_files_respawn_the_stateless_nodes_only():
+    """docs/faults.md's decisions: the tag detector and the navigator are respawned; every
+    other node of the stack ends the run when it dies."""
+    import xml.etree.ElementTree as ET
+    respawned = {}
+    for path in sorted((TOP / "launch").glob("*.launch")):
+        for node in ET.parse(path).getroot().iter("node"):
+            if node.get("respawn") == "true":
+                respawned[node.get("name")] = float(node.get("respawn_delay", "0"))
+    assert respawned == {"tag_detector": 1.0, "navigator": 1.0}
