@@ -175,38 +175,43 @@ def live(seeds: int, resume: bool, budget: float) -> dict:
     two at a time."""
     runs = explorations({"odom": "slam:=false odom_slip:=0.01", "slam": "slam:=true odom_slip:=0.01"},
                         WORLDS, ROBOT, "map", seeds, resume, budget, jobs=1)
-    runs.update(explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
-                              "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
-                             TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs=2))
+    runs.update(tag_missions(seeds, resume, budget))
     return runs
+
+
+def tag_missions(seeds: int, resume: bool, budget: float) -> dict:
+    return explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
+                         "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
+                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs=2)
 
 
 def summary(rec: dict, city: dict, runs: dict) -> dict:
     fig = {}
-    default = [v for k, v in rec.items() if k.endswith("/default")]
-    located = [v for k, v in rec.items() if k.endswith("/localization")]
-    if located:
-        fig["localization_ate_m_max"] = max(v["ate_m"] for v in located)
-        fig["localization_fused_fraction_min"] = min(v["fused_fraction"] for v in located)
-    fig["offline_ate_m_default_max"] = max(v["ate_slam_m"] for v in default)
-    fig["offline_ate_ratio_odom_over_slam_min"] = min(v["ratio"] for v in default)
-    fig["offline_map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in default)
-    for level in DRIFTS:
-        rows = [v for k, v in rec.items() if k.endswith(f"/{level}")]
-        fig[f"offline_ate_m_{level}_max"] = max(v["ate_slam_m"] for v in rows)
-        fig[f"offline_ate_odom_m_{level}_max"] = max(v["ate_odom_m"] for v in rows)
-    matched = [v for k, v in rec.items() if k.endswith("_matched")]
-    if matched:
-        fig["offline_ate_m_12pct_matched_max"] = max(v["ate_slam_m"] for v in matched)
-    drives = {k: v for k, v in rec.items() if not k.endswith("/localization")}
-    largest = max(drives.values(), key=lambda v: v["keyframes"])
-    for k in ("isam2_ms_median", "isam2_ms_p99", "isam2_ms_max"):
-        fig[k] = largest[k]
-    fig["isam2_keyframes_largest_run"] = largest["keyframes"]
-    fig["scan_match_ms_median"] = statistics.median(v["scan_match_ms_median"] for v in drives.values())
-    fig["memory_mb_per_1000_keyframes"] = 1000.0 * largest["rss_growth_mb"] / max(largest["keyframes"], 1)
-    fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in drives.values())
-    fig.update({k: v for k, v in city.items() if k.startswith("city10000_")})
+    if rec:   # the recorded drives and city10000 (not with --tags-only)
+        default = [v for k, v in rec.items() if k.endswith("/default")]
+        located = [v for k, v in rec.items() if k.endswith("/localization")]
+        if located:
+            fig["localization_ate_m_max"] = max(v["ate_m"] for v in located)
+            fig["localization_fused_fraction_min"] = min(v["fused_fraction"] for v in located)
+        fig["offline_ate_m_default_max"] = max(v["ate_slam_m"] for v in default)
+        fig["offline_ate_ratio_odom_over_slam_min"] = min(v["ratio"] for v in default)
+        fig["offline_map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in default)
+        for level in DRIFTS:
+            rows = [v for k, v in rec.items() if k.endswith(f"/{level}")]
+            fig[f"offline_ate_m_{level}_max"] = max(v["ate_slam_m"] for v in rows)
+            fig[f"offline_ate_odom_m_{level}_max"] = max(v["ate_odom_m"] for v in rows)
+        matched = [v for k, v in rec.items() if k.endswith("_matched")]
+        if matched:
+            fig["offline_ate_m_12pct_matched_max"] = max(v["ate_slam_m"] for v in matched)
+        drives = {k: v for k, v in rec.items() if not k.endswith("/localization")}
+        largest = max(drives.values(), key=lambda v: v["keyframes"])
+        for k in ("isam2_ms_median", "isam2_ms_p99", "isam2_ms_max"):
+            fig[k] = largest[k]
+        fig["isam2_keyframes_largest_run"] = largest["keyframes"]
+        fig["scan_match_ms_median"] = statistics.median(v["scan_match_ms_median"] for v in drives.values())
+        fig["memory_mb_per_1000_keyframes"] = 1000.0 * largest["rss_growth_mb"] / max(largest["keyframes"], 1)
+        fig["slam_log_speedup_median"] = statistics.median(v["speedup"] for v in drives.values())
+        fig.update({k: v for k, v in city.items() if k.startswith("city10000_")})
     tags_on = [v for k, v in runs.items() if k.startswith("tags_landmarks/") and isinstance(v, dict)]
     tags_off = [v for k, v in runs.items() if k.startswith("tags_no_landmarks/") and isinstance(v, dict)]
 
@@ -263,10 +268,18 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, default=1, help="seeds of the full explorations")
     p.add_argument("--budget", type=float, default=0.0, help="sim s of each exploration (0: bench-explore's rule)")
     p.add_argument("--resume", action="store_true", help="reuse finished explorations")
+    p.add_argument("--tags-only", action="store_true", help="only the waffle_pi's tag missions with SLAM, landmarks "
+                   "in the graph and not (slam.json then holds their keys alone, and says so in 'parts')")
     p.add_argument("--recorded-from", help="take the recorded drives' and city10000's results from this earlier "
                    "slam.json instead of running them again")
     a = p.parse_args(argv)
     t0 = time.monotonic()
+    if a.tags_only:
+        runs = tag_missions(a.seeds, a.resume, a.budget)
+        fig = summary({}, {}, runs)
+        fig.update(parts=["tag missions with SLAM (--tags-only)"], runs=runs, wall_s=time.monotonic() - t0)
+        write("slam", fig)
+        return 0
     if a.recorded_from:
         old = json.loads(Path(a.recorded_from).read_text())
         rec = old["recorded"]
