@@ -123,13 +123,22 @@ class TurnDriveModel {
   // Turning in place at (x, y) from `from` to `to` the short way, with the lattice's
   // turn_margin_m: the body's farthest point moves at most half a cell between checks. A
   // round robot's turn sweeps nothing new.
+  // A half turn has no short way: which way the follower turns is a rounding's choice (pi or
+  // -pi), so both must be clear (bench-plan found a box path whose half turn at the start was
+  // clear one way and not the other).
   bool turn_clear(double x, double y, double from, double to) const {
     const double delta = wrap(to - from);
     if (fp_.round()) return pose_clear(x, y, to);
+    if (std::fabs(delta) > kPi - 1e-6) return sweep_clear(x, y, from, kPi) && sweep_clear(x, y, from, -kPi);
+    return sweep_clear(x, y, from, delta);
+  }
+  // Turning in place at (x, y) from `from` by `delta` rad, checked every half cell of the body's
+  // farthest point's arc.
+  bool sweep_clear(double x, double y, double from, double delta) const {
     const int n = std::max(1, static_cast<int>(std::ceil(std::fabs(delta) * reach_ / (0.5 * res_))));
     for (int i = 1; i < n; ++i)
       if (!pose_clear(x, y, from + delta * i / n, turn_margin_)) return false;
-    return pose_clear(x, y, to);
+    return pose_clear(x, y, from + delta);
   }
 
   // Driving straight from (x1, y1) to (x2, y2) at `yaw`, checked every half cell.
