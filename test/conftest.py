@@ -1,5 +1,6 @@
-"""Shared factories: small worlds written as real map_server files."""
+"""Shared factories: small worlds written as real map_server files; a run's node by its master."""
 import math
+import os
 from pathlib import Path
 
 import cv2
@@ -185,3 +186,16 @@ def corridor_ahead(width_m: float, res: float = 0.01, length_m: float = 3.0) -> 
     lo = n(1.0) - n(width_m) // 2
     occ[lo:lo + n(width_m), n(0.05):n(length_m) - 1] = 0
     return occ
+
+
+def node_pid(name: str, port: int):
+    """The pid of node ``name`` of the run whose master is on ``port``, or None."""
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+            env = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if f"__name:={name}".encode() in cmd and f"ROS_MASTER_URI=http://127.0.0.1:{port}".encode() in env:
+            return int(pid)
+    return None

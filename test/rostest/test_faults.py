@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import node_pid
+
 TOP = Path(__file__).resolve().parents[2]
 
 
@@ -52,18 +54,6 @@ def end(proc, lines, timeout_s: float = 180.0) -> str:
             os.killpg(proc.pid, signal.SIGKILL)
     time.sleep(0.5)                                    # the reader thread's last lines
     return "".join(lines)
-
-
-def node_pid(name: str, port: int):
-    for pid in filter(str.isdigit, os.listdir("/proc")):
-        try:
-            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-            env = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if f"__name:={name}".encode() in cmd and f"ROS_MASTER_URI=http://127.0.0.1:{port}".encode() in env:
-            return int(pid)
-    return None
 
 
 def test_a_killed_navigator_is_restarted_and_the_run_goes_on(tmp_path):

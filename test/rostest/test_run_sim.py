@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import node_pid
+
 TOP = Path(__file__).resolve().parents[2]
 RED = "\x1b[31m"
 
@@ -128,19 +130,6 @@ def test_a_run_directory_in_use_is_refused(tmp_path):
     assert proc.returncode == 2 and len(lines) == 1, proc.stdout
     assert lines[0] == (f"[run] refused: {tmp_path} is in use by another run (pid 4242); give this one "
                         "another OUTPUT=DIR"), lines[0]
-
-
-def node_pid(name: str, port: int):
-    """The pid of node ``name`` of the run whose master is on ``port``, or None."""
-    for pid in filter(str.isdigit, os.listdir("/proc")):
-        try:
-            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-            env = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if f"__name:={name}".encode() in cmd and f"ROS_MASTER_URI=http://127.0.0.1:{port}".encode() in env:
-            return int(pid)
-    return None
 
 
 # the explorer, not the navigator: a killed navigator is restarted (docs/faults.md, test_faults.py)
