@@ -94,6 +94,14 @@ class OctomapLayer {
   // on a bad geometry or band.
   void project(const GridGeometry& grid, const HeightBand& band, std::int8_t* out) const;
 
+  // The robot's body stands on the disc of radius_m around (x, y) (map frame, m) from the
+  // floor to z_top_m: each voxel whose centre lies in that cylinder gets one miss (OctoMap's
+  // updateNode(key, false)), as if a ray had crossed it. The camera never sees the space the
+  // body fills (inside its minimum range), so without this the band under the robot's own
+  // track stays unknown. Returns the number of voxels updated. Throws std::invalid_argument
+  // on a non-finite or negative input.
+  int free_body(double x, double y, double radius_m, double z_top_m);
+
   // Every occupied leaf (for markers), in OctoMap's leaf order.
   VoxelList occupied_voxels() const;
 

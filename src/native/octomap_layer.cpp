@@ -151,6 +151,32 @@ void OctomapLayer::project(const GridGeometry& g, const HeightBand& band, std::i
   }
 }
 
+int OctomapLayer::free_body(double x, double y, double radius_m, double z_top_m) {
+  check(std::isfinite(x) && std::isfinite(y), "free_body: the position must be finite");
+  check(std::isfinite(radius_m) && radius_m >= 0 && std::isfinite(z_top_m) && z_top_m >= 0,
+        "free_body: need radius_m >= 0 and z_top_m >= 0, finite");
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double res = tree_.getResolution();
+  const int n = static_cast<int>(std::ceil(radius_m / res));
+  const int levels = static_cast<int>(std::floor(z_top_m / res));
+  int updated = 0;
+  for (int i = -n; i <= n; ++i) {
+    for (int j = -n; j <= n; ++j) {
+      // the centre of the voxel column (i, j) voxels away from the one holding (x, y)
+      const double cx = (std::floor(x / res) + i + 0.5) * res;
+      const double cy = (std::floor(y / res) + j + 0.5) * res;
+      if (std::hypot(cx - x, cy - y) > radius_m) continue;
+      for (int k = 0; k < levels; ++k) {
+        tree_.updateNode(octomap::point3d(static_cast<float>(cx), static_cast<float>(cy),
+                                          static_cast<float>((k + 0.5) * res)),
+                         false);
+        ++updated;
+      }
+    }
+  }
+  return updated;
+}
+
 VoxelList OctomapLayer::occupied_voxels() const {
   std::lock_guard<std::mutex> lock(mutex_);
   VoxelList v;
@@ -326,6 +352,10 @@ void register_octomap(py::module_& m) {
            "int8 (rows, cols) in nav_msgs/OccupancyGrid order (row 0 = smallest y; origin: the\n"
            "lower-left corner of cell (0, 0), m): 100 under an occupied voxel centred in\n"
            "(floor_band_m, robot_height_m], else -1 (the layer knows no free space).")
+      .def("free_body", &OctomapLayer::free_body, py::arg("x"), py::arg("y"), py::arg("radius_m"),
+           py::arg("z_top_m"), py::call_guard<py::gil_scoped_release>(),
+           "The robot's body on the disc of radius_m (m) around (x, y) (m, map frame), from the\n"
+           "floor to z_top_m: one miss for each voxel centred in that cylinder. Returns how many.")
       .def("occupied_voxels", &py_occupied_voxels,
            "(centres (n, 3) float64 m, sizes (n,) float64 m): every occupied leaf.")
       .def("probabilities", &py_probabilities, py::arg("points"),

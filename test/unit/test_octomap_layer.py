@@ -7,6 +7,7 @@ lidar (a depth scan) lies in the plane z = 0.287 m; the robot is 0.40 m tall.
 """
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -189,6 +190,67 @@ def test_an_overhang_below_the_robot_top_is_projected_and_one_above_it_is_not():
     assert not (merged[high] == OBSTACLE).any()
     centres, _ = layer.occupied_voxels()
     assert (centres[:, 2] > 0.40).any()                        # seen, and left out by the band only
+
+
+def test_a_table_seen_from_the_front_blocks_its_hidden_far_side_until_the_camera_looks():
+    """Issue 33's 3-D check: a table top above the scan plane seen from the front shows the
+    camera (0.287 m up, below the top) its front face only; the scan passes under and calls
+    the cells beneath free. Its far side blocks while hidden (``obstacles``), and what lies
+    behind it opens once the camera has looked from the other side."""
+    walls = [scene.box(-1.0, -2.1, 0.0, 4.6, -2.0, 0.5), scene.box(-1.0, 2.0, 0.0, 4.6, 2.1, 0.5),
+             scene.box(4.5, -2.0, 0.0, 4.6, 2.0, 0.5), scene.box(-1.1, -2.0, 0.0, -1.0, 2.0, 0.5)]
+    table = scene.box(1.52, -0.32, 0.30, 2.22, 0.32, 0.45)
+    boxes = [FLOOR, table] + walls
+    grid = lidar_grid(boxes)
+    occupancy, origin = grid.occupancy(), (grid.origin_x, grid.origin_y)
+    layer = new_layer()
+    see(layer, boxes)
+    under = cells_inside(table, origin, occupancy.shape)
+    behind = cells_inside(scene.box(2.27, -0.2, 0.0, 2.6, 0.2, 0.0), origin, occupancy.shape)
+    for cells in (under, behind):                                         # the scan: free
+        assert ((occupancy[cells] >= 0) & (occupancy[cells] < OCCUPIED_THRESH)).all()
+    front_only = project_like(layer, grid)
+    # the front face, and the underside where a sampled row grazes it: most of the top unseen
+    assert (front_only[under][:, 0] == OBSTACLE).all() and (front_only[under] != OBSTACLE).mean() > 0.7
+    seen = layer.obstacles(occupancy, RES, origin)
+    # the far part of the top (beyond where a row grazed the underside) and what lies behind it
+    # block; between the front face and that graze the cells are walled in on both sides
+    far_side = under[0], under[1][:, -6:]
+    assert (front_only[far_side] != OBSTACLE).mean() > 0.9
+    assert (seen[far_side] == OBSTACLE).all() and (seen[behind] == OBSTACLE).all()
+    # walls (the lidar's) cast nothing, unknown cells stay unknown, nothing beyond the extent
+    added = (seen == OBSTACLE) & (front_only != OBSTACLE)
+    assert ((occupancy[added] >= 0) & (occupancy[added] < OCCUPIED_THRESH)).all()
+    in_front = cells_inside(scene.box(0.3, -1.5, 0.0, 1.4, 1.5, 0.0), origin, occupancy.shape)
+    assert not (seen[in_front] == OBSTACLE).any()
+    far = cells_inside(scene.box(3.3, -1.5, 0.0, 4.4, 1.5, 0.0), origin, occupancy.shape)
+    assert not (seen[far] == OBSTACLE).any()
+    off = OctomapLayer(replace(SETTINGS, hidden_extent_m=0.0))
+    see(off, boxes)
+    assert (off.obstacles(occupancy, RES, origin) == project_like(off, grid)).all()
+    # from the far side (x = 4.0, facing back) the camera looks behind the table: that opens,
+    # and the table's own far face blocks
+    see(layer, boxes, x=4.0, yaw=math.pi)
+    both = layer.obstacles(occupancy, RES, origin)
+    assert not (both[behind] == OBSTACLE).any()
+    far_face = cells_inside(scene.box(2.2, -0.3, 0.0, 2.25, 0.3, 0.0), origin, occupancy.shape)
+    assert (both[far_face] == OBSTACLE).all() and (both[under][:, 0] == OBSTACLE).all()
+
+
+def test_the_robots_own_column_is_free():
+    layer = new_layer()
+    layer.insert(np.array([[0.5, 0.0, 0.2]]), (0.5, 0.0, 0.3))     # a voxel seen occupied
+    assert layer.tree.probabilities(np.array([[0.525, 0.025, 0.225]]))[0] > 0.5
+    n = layer.free_body(0.5, 0.0, 0.15)
+    # the disc's columns up to the robot's 0.40 m (8 voxels), each voxel one miss
+    offsets = np.arange(-3, 4) * RES + 0.025                         # column centres from (0.5, 0.0)
+    columns = int((np.hypot(*np.meshgrid(offsets, offsets)) <= 0.15).sum())
+    assert columns == 32 and n == 8 * columns
+    probe = np.array([[0.525, 0.125, 0.375], [0.475, -0.075, 0.025], [0.5, 0.4, 0.2]])
+    p = layer.tree.probabilities(probe)
+    assert p[0] < 0.5 and p[1] < 0.5 and np.isnan(p[2])             # inside: free; outside: unknown
+    with pytest.raises(ValueError, match="free_body"):
+        layer.free_body(math.nan, 0.0, 0.15)
 
 
 # ------------------------------------------------------------------------------ bad points

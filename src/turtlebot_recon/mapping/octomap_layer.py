@@ -24,11 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
+from scipy import ndimage
+
 from .. import _native
 from ..config import positive, require
 from ..robot import RobotSpec
+from .map_io import OCCUPIED_THRESH
 
 OBSTACLE = 100   # the layer's value under a 3-D obstacle (nav_msgs/OccupancyGrid's "occupied")
+EIGHT = np.ones((3, 3), bool)   # 8-connected neighbourhood
 
 
 @dataclass(frozen=True)
@@ -55,9 +59,16 @@ class OctomapSettings:
     clamping_thres_min: float = 0.1192  # a voxel never surer than this of free ...
     clamping_thres_max: float = 0.971  # ... nor of occupied
     occupancy_thres: float = 0.5       # occupied above this probability
+    hidden_extent_m: float = 1.0       # m, how far a 3-D obstacle the lidar cannot see (a table
+                                       # top above its plane) is taken to go on into lidar-free
+                                       # cells whose band the camera has not seen at its height:
+                                       # its far side, hidden behind the face the camera saw,
+                                       # blocks until the camera looks (0: off; furniture depth)
 
     def validate(self, src: str) -> None:
         positive(src, self, "resolution_m", "max_range_m", "max_point_z_m", "depth_columns")
+        require(math.isfinite(self.hidden_extent_m) and self.hidden_extent_m >= 0, src, "hidden_extent_m",
+                f"must be >= 0 m (0: off), got {self.hidden_extent_m!r}")
         require(math.isfinite(self.floor_band_m) and self.floor_band_m >= 0, src, "floor_band_m",
                 f"must be >= 0, got {self.floor_band_m!r}")
         require(math.isfinite(self.robot_height_m) and self.robot_height_m >= 0, src, "robot_height_m",
@@ -103,6 +114,12 @@ class OctomapLayer:
         return self.tree.insert_point_cloud(np.asarray(points, np.float32), x, y, z, s.max_range_m,
                                             s.max_point_z_m, s.discretize)
 
+    def free_body(self, x: float, y: float, radius_m: float) -> int:
+        """The robot stands on the disc of ``radius_m`` around (x, y) (m, map frame): the voxels
+        of that column up to robot_height_m get a miss each (the camera never sees the space
+        its own body fills, so the band along the robot's track would stay unknown)."""
+        return self.tree.free_body(float(x), float(y), float(radius_m), self.settings.robot_height_m)
+
     def project(self, rows: int, cols: int, resolution: float, origin) -> np.ndarray:
         """int8 (rows, cols) on a grid's geometry (row 0 at the smallest y; ``origin`` the (x, y)
         m of cell (0, 0)'s lower-left corner): OBSTACLE under an occupied voxel centred in
@@ -111,6 +128,68 @@ class OctomapLayer:
         return self.tree.project(rows=rows, cols=cols, resolution=resolution, origin_x=float(origin[0]),
                                  origin_y=float(origin[1]), floor_band_m=s.floor_band_m,
                                  robot_height_m=s.robot_height_m)
+
+    def obstacles(self, occupancy: np.ndarray, resolution: float, origin) -> np.ndarray:
+        """The layer to merge with the lidar grid ``occupancy`` (int8, its geometry): ``project``'s
+        obstacles, and where one is the layer's own (no lidar wall within a cell: a table top
+        above the scan plane, a step below it), the lidar-free cells within hidden_extent_m of
+        it, connected to it, whose band the tree has not seen from that obstacle's lowest voxel
+        up to the robot's top. The camera sees the near face of such an obstacle, not what lies
+        behind it, while the lidar's beams pass under or over and call those cells free; they
+        block until a depth frame has looked through them (then their voxels are known, free or
+        occupied). Unknown lidar cells stay unknown (they remain frontiers), walls add nothing."""
+        rows, cols = occupancy.shape
+        layer = self.project(rows, cols, resolution, origin)
+        s = self.settings
+        solid = layer == OBSTACLE
+        if s.hidden_extent_m <= 0 or not solid.any():
+            return layer
+        wall = occupancy >= OCCUPIED_THRESH
+        own = solid & ~ndimage.binary_dilation(wall, EIGHT)
+        if not own.any():
+            return layer
+        lowest = self._lowest_voxel(own, resolution, origin)
+        dist, (near_r, near_c) = ndimage.distance_transform_edt(~own, return_indices=True)
+        r, c = np.nonzero((dist * resolution <= s.hidden_extent_m) & (occupancy >= 0) & ~wall & ~solid)
+        if r.size == 0:
+            return layer
+        z_from = lowest[near_r[r, c], near_c[r, c]]       # the nearest own obstacle's lowest voxel
+        step = self.tree.resolution
+        levels = (np.arange(int(s.robot_height_m / step) + 1) + 0.5) * step
+        levels = levels[(levels > s.floor_band_m) & (levels <= s.robot_height_m)]
+        xs = origin[0] + (c + 0.5) * resolution
+        ys = origin[1] + (r + 0.5) * resolution
+        pts = np.stack((np.repeat(xs, levels.size), np.repeat(ys, levels.size), np.tile(levels, r.size)), 1)
+        unknown = np.isnan(self.tree.probabilities(pts)).reshape(r.size, levels.size)
+        # the nearest own obstacle's lowest level and the two above it: a cell with none of them
+        # seen is in its shadow (in front of its face the rays to its lower edge cross them;
+        # one seen level is enough, since near the camera the higher ones are out of its view)
+        at = np.clip(np.searchsorted(levels, z_from - 0.5 * step), 0, levels.size - 1)
+        idx = np.arange(r.size)
+        unseen = np.ones(r.size, bool)
+        for k in range(3):
+            unseen &= unknown[idx, np.minimum(at + k, levels.size - 1)]
+        hidden = np.zeros_like(own)
+        hidden[r[unseen], c[unseen]] = True
+        grown = ndimage.binary_propagation(own, structure=EIGHT, mask=own | hidden)
+        layer[grown & ~solid] = OBSTACLE
+        return layer
+
+    def _lowest_voxel(self, cells: np.ndarray, resolution: float, origin) -> np.ndarray:
+        """float (rows, cols): the lowest centre height (m) of the occupied band voxels over each
+        of ``cells`` (bool), +inf elsewhere."""
+        s = self.settings
+        centres, sizes = self.tree.occupied_voxels()
+        low = centres[:, 2] - 0.5 * sizes
+        keep = (centres[:, 2] > s.floor_band_m) & (low <= s.robot_height_m)
+        centres, sizes = centres[keep], sizes[keep]
+        out = np.full(cells.shape, np.inf)
+        ci = np.floor((centres[:, 0] - origin[0]) / resolution).astype(int)
+        ri = np.floor((centres[:, 1] - origin[1]) / resolution).astype(int)
+        ok = (ri >= 0) & (ri < cells.shape[0]) & (ci >= 0) & (ci < cells.shape[1])
+        z = np.maximum(centres[ok, 2] - 0.5 * sizes[ok] + 0.5 * self.tree.resolution, s.floor_band_m)
+        np.minimum.at(out, (ri[ok], ci[ok]), z)
+        return np.where(cells, out, np.inf)
 
     def occupied_voxels(self) -> tuple:
         """(centres (n, 3) m, sizes (n,) m) of every occupied leaf: the markers' cubes."""
