@@ -6,6 +6,7 @@ import math
 import os
 import subprocess
 import sys
+import time
 import unittest
 
 import numpy as np
@@ -26,7 +27,16 @@ class SlamLocalization(unittest.TestCase):
         tf2_ros.TransformListener(buf)
         errors, yaw_errors, odom_errors = [], [], []
         start = None
-        end = float(rospy.get_param("~drive_s")) - 5.0         # sim s: the wander drives until then
+        # The wander starts once localisation publishes (its launch-prefix waits for /slam/path,
+        # seconds of wall time on a busy machine, while the simulator runs on at rtf 0): the
+        # window is the wander's own, from its first motion
+        deadline = time.monotonic() + 120.0
+        while not rospy.is_shutdown():
+            twist = rospy.wait_for_message("/sim/ground_truth", Odometry, timeout=30.0).twist.twist
+            if abs(twist.linear.x) > 0.01 or abs(twist.angular.z) > 0.01:
+                break
+            self.assertLess(time.monotonic(), deadline, "the wander never started")
+        end = rospy.get_time() + float(rospy.get_param("~drive_s")) - 10.0   # sim s: it drives until then
         while not rospy.is_shutdown() and rospy.get_time() < end:
             truth = rospy.wait_for_message("/sim/ground_truth", Odometry, timeout=30.0)
             stamp = truth.header.stamp
