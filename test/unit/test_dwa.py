@@ -1,7 +1,6 @@
 """DWA (include/turtlebot_recon/dwa.hpp, control/dwa.py): the obvious command in hand-built
 cases, the dynamic window, bad input, and closed loop with the oriented footprint."""
 import math
-import time
 
 import numpy as np
 import pytest
@@ -142,24 +141,6 @@ def test_empty_path_and_bad_arguments():
     with pytest.raises(ValueError, match="Dwa.plan: pose and origin must be finite"):
         native_dwa().plan(occ, RES, (0, 0), (math.nan, 0, 0), (0, 0), 0.1, (1, 0), (1, 0))
 
-
-def test_400_samples_in_about_a_millisecond():
-    # The waffle's box in a 0.40 m corridor (every pose near the walls: the outline is looked up
-    # at each) at cruising speed; the best of several repetitions (the machine is shared).
-    dwa = native_dwa()
-    occ = corridor()
-    args = (occ, RES, (0.0, 0.0), (2.0, 1.0, 0.0), (0.2, 0.0), 0.1, (3.0, 1.0), (9.0, 1.0))
-    best = math.inf
-    for _ in range(10):
-        t = time.perf_counter()
-        for _ in range(10):
-            dwa.plan(*args)
-        best = min(best, (time.perf_counter() - t) / 10)
-    print(f"dwa 400 samples: {best * 1e3:.3f} ms")
-    assert best < 3e-3          # the target is 1 ms; a loaded CI machine gets this margin
-
-
-# ---------------------------------------------------------------- closed loop
 
 def test_reaches_a_goal_on_an_empty_map_within_the_limits():
     occ = walled_room()

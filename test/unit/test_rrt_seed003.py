@@ -10,7 +10,6 @@ ceil(6.12) + 3 = 10 cells, the seed's own.
 """
 import math
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -154,16 +153,14 @@ def test_waffle_pi_hitbox_does_not_fit_a_gap_narrower_than_half_a_metre():
     assert plan_rrt_seed003(occ, RES, ORIGIN, BURGER, (1.0, 1.5), (5.0, 1.5)).length_m >= 4.0
 
 
-def test_walled_off_goal_is_no_path_within_the_limits_and_fast():
+def test_walled_off_goal_is_no_path_within_the_limits():
     occ = corridor_bend()
     occ[:, 58:62] = 100                                # the opening closed
-    t0 = time.perf_counter()
     with pytest.raises(PlanningError, match=r"no path .* 25000 steps"):
         plan_rrt_seed003(occ, RES, ORIGIN, BURGER, (0.75, 0.75), (5.25, 0.75))
-    assert time.perf_counter() - t0 < 2.0              # ~0.1 s here: SMAX bounds the search
     out = raw(occ, cells((0.75, 0.75)), cells((5.25, 0.75)))
     assert not out["found"] and len(out["path"]) == 0
-    assert out["steps"] == 25000 and out["nodes"] < 10000     # the left half fills long before NMAX
+    assert out["steps"] == 25000 and out["nodes"] < 10000     # SMAX bounds the search; the left half fills long before NMAX
     few = raw(occ, cells((0.75, 0.75)), cells((5.25, 0.75)), max_nodes=50)
     assert few["nodes"] == 50 and few["steps"] < 25000         # NMAX ends it first
 

@@ -9,9 +9,7 @@ the matcher has to find all of DELTA. Poses are the lidar's own (the sensor fram
 truth is ``sim.sensor_pose``.
 """
 import math
-import statistics
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -263,19 +261,3 @@ def test_calls_from_two_threads_give_the_same_answer(sims):
         t.join()
     assert len(results) == 40 and all(np.array_equal(p, expected) for p in results)
 
-
-def test_match_time(sims):
-    # 360-beam scan against a 10-scan submap (~3,500 points), one core; target <= 2 ms median
-    # (measured ~0.4-0.7 ms). Asserted loosely here (shared CI machines); the number is printed.
-    points, reference, guess, _ = case(sims("house"), HOUSE_ROOM)
-    matcher = ScanMatcher()
-    matcher.match(points, reference, guess)   # buffers allocated
-    times = []
-    for _ in range(100):
-        t0 = time.perf_counter()
-        matcher.match(points, reference, guess)
-        times.append(time.perf_counter() - t0)
-    median_ms = 1e3 * statistics.median(times)
-    print(f"\nscan match: {len(points)} points vs {len(reference)} reference points, "
-          f"median {median_ms:.3f} ms over 100")
-    assert median_ms < 10.0
