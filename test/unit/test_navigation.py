@@ -199,6 +199,27 @@ def test_the_first_leg_starts_where_the_robot_is_not_at_its_cell_centre():
     assert math.hypot(x - 3.3, y - 1.52) <= 0.1 + 0.03          # tolerance + one period of travel
 
 
+def test_a_new_goal_while_driving_continues_the_line_instead_of_turning_on_the_spot(nav):
+    """Issue 30 item 2: a goal that replaces the one being driven to is planned from the old
+    plan's anchor just ahead on the line the robot drives (as a replan is), so the robot keeps
+    moving into the new plan; the old plan is never followed again."""
+    nav.set_goal(3.5, 1.5)
+    pose = drive(nav, (1.0, 1.5, 0.0), 1.5)
+    assert nav.status == "active" and pose[0] > 1.2 and abs(pose[2]) < 0.05   # driving east
+    nav.set_goal(2.2, 2.6)                       # up to the left: 60 degrees off the heading
+    v, _ = nav.step(1.5, pose, (0.2, 0.0))
+    first = nav.plan.poses[0]
+    assert v > 0.05                              # no stop to turn where it stands
+    assert first[0] > pose[0] + 0.5 * RES and abs(first[2]) < 1e-6   # ahead, on the old line
+    assert nav.goal == (2.2, 2.6, None)
+    x, y, _ = drive(nav, pose, 30.0)
+    assert nav.status == "succeeded" and math.hypot(x - 2.2, y - 2.6) <= 0.1 + 1e-9
+    # from standstill, with no plan, the first plan starts where the robot is
+    nav.set_goal(1.0, 1.0)
+    nav.step(0.0, (x, y, 0.0), (0.0, 0.0))
+    assert math.hypot(*(nav.plan.poses[0][:2] - (x, y))) < 2 * RES
+
+
 # ---------------------------------------------------------------- the oriented footprint
 
 WAFFLE = load_robot("turtlebot3_waffle_pi")

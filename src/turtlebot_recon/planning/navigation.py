@@ -174,6 +174,7 @@ class Navigation:
         self._blocked_at = -math.inf                  # ... and when (s)
         self.last_output = None
         self.repeated_goals = 0                       # the active goal sent again (set_goal)
+        self._new_goal = False                        # set_goal kept the old plan for the anchor
 
     # ------------------------------------------------------------------ inputs
     def set_goal(self, x: float, y: float, yaw: Optional[float] = None) -> bool:
@@ -188,7 +189,15 @@ class Navigation:
             self.repeated_goals += 1
             return False
         self.goal = (x, y, yaw)
-        self._clear_path()
+        # A goal that replaces one being driven to keeps the old plan until the new one is made,
+        # which starts from its anchor (``_anchor``: a pose of it just ahead, on the line the
+        # robot is driving), as a replan does: the robot drives on into the new plan rather than
+        # stopping to turn in place where it stands. The old plan is never followed again.
+        following = self.status == "active" and len(self.path_poses) and self.backing is None \
+            and self.arc is None
+        if not following:
+            self._clear_path()
+        self._new_goal = True
         self.status, self.reason = "active", ""
         self._need_plan, self._blocked, self._blocked_map, self._blocked_at = True, 0, None, -math.inf
         self.controller.reset()
@@ -420,6 +429,9 @@ class Navigation:
         m = self.map
         self._planned_at, self._need_plan = now_s, False
         anchor = self._anchor(pose) if anchored else None
+        if self._new_goal:                    # the old goal's plan served as the anchor only
+            self._new_goal = False
+            self._clear_path()
         start = anchor or self._start(pose)
         if start is None:
             where = f"({pose[0]:.2f}, {pose[1]:.2f})"
