@@ -3,8 +3,9 @@ GTSAM's iSAM2.
 
 One ``Slam`` object takes plain data: wheel-odometry poses (the odom frame) and IMU yaw rates as
 they come, scans as points in the base frame with the odometry pose at their stamp, tags as
-positions in the base frame with the odometry pose at their image's stamp (``add_tag``). Every ``keyframe_distance_m`` or ``keyframe_angle_rad`` of odometry
-a scan becomes a keyframe, tied to the one before it by two factors:
+positions in the base frame with the odometry pose at their image's stamp (``add_tag``). Every
+``keyframe_distance_m`` or ``keyframe_angle_rad`` of odometry a scan becomes a keyframe, tied to
+the one before it by two factors:
 
 * wheel odometry, with a covariance from the wheel-slip model the simulator uses (variance per
   wheel grows with the distance it rolls);
@@ -377,8 +378,8 @@ class Slam:
 
         The pose at the image's stamp, not the newest scan's: scans and images are not
         synchronised, and a detection reaches the node after the detector's latency (up to 1 s
-        seen on a loaded machine), scans and keyframes having come meanwhile; a robot turning at
-        1 rad/s then sees the tag up to a radian away from where the newest scan's pose puts it."""
+        seen on a loaded machine), scans and keyframes having come meanwhile: the newest scan's
+        pose had turned up to 0.6 rad from the image's in a house run (docs/benchmarks.md)."""
         if not self.keyframes or self.last_odom is None:
             return "no keyframe yet"
         if stamp_s < self.keyframes[0].stamp_s:
