@@ -140,10 +140,11 @@ TAG_KEYS = ("tags_placed", "tags_confirmed", "tag_recall", "tag_error_median_m",
 
 
 def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resume: bool, budget: float,
-                 jobs: int) -> dict:
+                 jobs: int, min_rtf: float = 0.0) -> dict:
     """bench_explore's runs of recon on ``worlds`` for each mode (name -> launch arguments), as
     `make bench-explore` runs them (sweeps ``slam_runs_<mode>``); "mode/world/seedN" -> the
-    report's RUN_KEYS (and TAG_KEYS on a tags mission) and the keyframe ATE, or "no report"."""
+    report's RUN_KEYS (and TAG_KEYS on a tags mission) and the keyframe ATE, or "no report".
+    ``min_rtf`` > 0: bench_explore's --min-rtf (its wall limit), else its default."""
     import bench_explore
     out = {}
     for mode, args in modes.items():
@@ -152,6 +153,7 @@ def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resu
                 "--jobs", str(jobs), "--name", name, "--mission", mission, "--launch-args", args]
         argv += ["--budget", f"{budget:g}"] if budget else []
         argv += ["--resume"] if resume else []
+        argv += ["--min-rtf", f"{min_rtf:g}"] if min_rtf > 0 else []
         bench_explore.main(argv)
         (bench_explore.BENCH_DIR / f"{name}.json").unlink(missing_ok=True)
         for w in worlds:
@@ -169,20 +171,20 @@ def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resu
     return out
 
 
-def live(seeds: int, resume: bool, budget: float) -> dict:
+def live(seeds: int, resume: bool, budget: float, tag_jobs: int = 2, min_rtf: float = 0.0) -> dict:
     """The burger's map explorations, odometry alone and with SLAM, one at a time; then the
     waffle_pi's tag missions with SLAM (TAG_WORLDS), its tags landmarks in the graph and not,
-    two at a time."""
+    two at a time (``tag_jobs``)."""
     runs = explorations({"odom": "slam:=false odom_slip:=0.01", "slam": "slam:=true odom_slip:=0.01"},
-                        WORLDS, ROBOT, "map", seeds, resume, budget, jobs=1)
-    runs.update(tag_missions(seeds, resume, budget))
+                        WORLDS, ROBOT, "map", seeds, resume, budget, 1, min_rtf)
+    runs.update(tag_missions(seeds, resume, budget, tag_jobs, min_rtf))
     return runs
 
 
-def tag_missions(seeds: int, resume: bool, budget: float) -> dict:
+def tag_missions(seeds: int, resume: bool, budget: float, jobs: int = 2, min_rtf: float = 0.0) -> dict:
     return explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
                          "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
-                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs=2)
+                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs, min_rtf)
 
 
 def summary(rec: dict, city: dict, runs: dict) -> dict:
@@ -270,12 +272,16 @@ def main(argv=None) -> int:
     p.add_argument("--resume", action="store_true", help="reuse finished explorations")
     p.add_argument("--tags-only", action="store_true", help="only the waffle_pi's tag missions with SLAM, landmarks "
                    "in the graph and not (slam.json then holds their keys alone, and says so in 'parts')")
+    p.add_argument("--tag-jobs", type=int, default=2, help="tag missions run at once (1 on a machine shared "
+                   "with other work)")
+    p.add_argument("--min-rtf", type=float, default=0.0, help="the explorations' wall limit: startup + budget / "
+                   "this (0: bench-explore's default, 2); lower it on a loaded machine")
     p.add_argument("--recorded-from", help="take the recorded drives' and city10000's results from this earlier "
                    "slam.json instead of running them again")
     a = p.parse_args(argv)
     t0 = time.monotonic()
     if a.tags_only:
-        runs = tag_missions(a.seeds, a.resume, a.budget)
+        runs = tag_missions(a.seeds, a.resume, a.budget, a.tag_jobs, a.min_rtf)
         fig = summary({}, {}, runs)
         fig.update(parts=["tag missions with SLAM (--tags-only)"], runs=runs, wall_s=time.monotonic() - t0)
         write("slam", fig)
@@ -292,7 +298,7 @@ def main(argv=None) -> int:
         city = run_city10000()
     print(f"[bench-slam] city10000: median {city['city10000_ms_median']:.2f} ms, max error "
           f"{city['city10000_max_error_m']:.3f} m", flush=True)
-    runs = live(a.seeds, a.resume, a.budget) if a.live else {}
+    runs = live(a.seeds, a.resume, a.budget, a.tag_jobs, a.min_rtf) if a.live else {}
     fig = summary(rec, city, runs)
     fig["recorded"] = rec
     fig["runs"] = runs

@@ -211,24 +211,68 @@ def test_a_gap_in_the_gyro_is_not_filled_by_the_next_sample():
     assert step[2] == pytest.approx(1.5)                     # wheel odometry's heading, not the gyro's 0
 
 
+WALLS = np.array([[2.0, y] for y in np.linspace(-1, 1, 40)] + [[x, 1.5] for x in np.linspace(0, 2, 40)])
+
+
 def test_tags_enter_the_graph_after_two_sightings_at_their_place():
-    """A tag seen from the last keyframe (base frame, through the odometry since it) becomes a
+    """A tag seen from near a keyframe (base frame, through the odometry since it) becomes a
     landmark only at its second sighting, where the two sightings put it."""
     slam = Slam(SlamSettings(), 0.16)
-    pts = np.array([[2.0, y] for y in np.linspace(-1, 1, 40)] + [[x, 1.5] for x in np.linspace(0, 2, 40)])
-    slam.add_scan(0.0, pts, (0.0, 0.0, 0.0))
-    slam.add_scan(0.2, pts - [0.3, 0.0], (0.3, 0.0, 0.0))           # a keyframe 0.3 m on
-    assert slam.add_tag(0.25, "tag36h11:3", (1.5, 0.5), np.diag([1e-4, 1e-4])) is None
+    slam.add_scan(0.0, WALLS, (0.0, 0.0, 0.0))
+    slam.add_scan(0.2, WALLS - [0.3, 0.0], (0.3, 0.0, 0.0))          # a keyframe 0.3 m on
+    assert slam.add_tag(0.2, "tag36h11:3", (1.5, 0.5), np.diag([1e-4, 1e-4]), (0.3, 0.0, 0.0)) is None
     assert "tag36h11:3" not in slam.graph.landmarks()                  # one sighting: buffered
-    slam.add_scan(0.4, pts - [0.35, 0.0], (0.35, 0.0, 0.0))          # moved 5 cm: no keyframe
-    assert slam.add_tag(0.45, "tag36h11:3", (1.45, 0.5), np.diag([1e-4, 1e-4])) is None
-    slam.add_scan(0.6, pts - [0.6, 0.0], (0.6, 0.0, 0.0))            # the next keyframe updates
+    slam.add_scan(0.4, WALLS - [0.35, 0.0], (0.35, 0.0, 0.0))        # moved 5 cm: no keyframe
+    assert slam.add_tag(0.4, "tag36h11:3", (1.45, 0.5), np.diag([1e-4, 1e-4]), (0.35, 0.0, 0.0)) is None
+    slam.add_scan(0.6, WALLS - [0.6, 0.0], (0.6, 0.0, 0.0))          # the next keyframe updates
     xy = slam.graph.landmarks()["tag36h11:3"]
     np.testing.assert_allclose(xy, (1.8, 0.5), atol=0.02)             # 0.3 + 1.5, in the map
     # an absurd sighting is refused with a reason, the graph untouched
-    assert "finite" in slam.add_tag(0.65, "tag36h11:3", (float("nan"), 0.5), np.eye(2))
-    assert "inconsistent" in slam.add_tag(0.65, "tag36h11:3", (4.0, -3.0), np.diag([1e-4, 1e-4]))
+    assert "finite" in slam.add_tag(0.65, "tag36h11:3", (float("nan"), 0.5), np.eye(2), (0.6, 0.0, 0.0))
+    assert "finite" in slam.add_tag(0.65, "tag36h11:3", (1.2, 0.5), np.eye(2), (0.6, float("nan"), 0.0))
+    assert "inconsistent" in slam.add_tag(0.65, "tag36h11:3", (4.0, -3.0), np.diag([1e-4, 1e-4]), (0.6, 0.0, 0.0))
+    assert "before the first keyframe" in slam.add_tag(-0.5, "tag36h11:3", (1.2, 0.5), np.eye(2), (0.6, 0.0, 0.0))
     np.testing.assert_allclose(slam.graph.landmarks()["tag36h11:3"], (1.8, 0.5), atol=0.02)
+    assert slam.stats()["landmarks"] == 1 and slam.stats()["landmark_rejected"] == 1
+
+
+def test_a_tag_is_placed_by_the_pose_at_its_images_stamp_not_the_newest_scans():
+    """The robot turns in place at 1 rad/s; the image of a tag at (1.8, 0.5) is taken at 0.25 s
+    and its detection comes in after the scans of 0.4 and 0.6 s (the detector's latency), the
+    0.6 s one a keyframe. The newest scan's pose (yaw 0.4) would put the tag 0.35 rad round:
+    0.55 m off at 1.57 m. Through the odometry at the image's stamp, from the keyframe nearest
+    in time (0.2 s), it lands on the tag."""
+    slam = Slam(SlamSettings(), 0.16)
+    tag = (1.8, 0.5, 0.0)
+    slam.add_scan(0.0, WALLS, (0.0, 0.0, 0.0))
+    slam.add_scan(0.2, WALLS - [0.3, 0.0], (0.3, 0.0, 0.0))          # keyframe 1
+    pose_at = {t: (0.3, 0.0, t - 0.2) for t in (0.25, 0.3, 0.4, 0.6)}  # turning in place
+    for t in (0.4, 0.6):
+        slam.add_scan(t, transform_points(between(pose_at[t], (0, 0, 0)), WALLS), pose_at[t])
+    assert len(slam.keyframes) == 3                                    # 0.4 rad at 0.6 s: keyframe 2
+    for t in (0.25, 0.3):                                              # late detections
+        xy = between(pose_at[t], tag)[:2]
+        assert slam.add_tag(t, "tag36h11:7", xy, np.diag([1e-4, 1e-4]), pose_at[t]) is None
+    slam.graph.update()
+    np.testing.assert_allclose(slam.graph.landmarks()["tag36h11:7"], tag[:2], atol=0.01)
+
+
+def test_a_tags_step_from_the_last_keyframe_takes_the_gyros_heading():
+    """Between the last keyframe and the image the wheels say the robot turned 0.06 rad; it did
+    not (a slipping wheel), and the gyro says so. The sighting's step takes the gyro's heading
+    (fused by inverse variance: the gyro's is ~2e-8 rad², the wheels' ~4e-4): the tag at
+    1.5 m lands within 1 cm, where the wheels' heading would put it 9 cm off."""
+    slam = Slam(SlamSettings(), 0.16)
+    for t in np.arange(0.0, 0.61, 0.02):
+        slam.add_imu(t, 0.0)
+    slam.add_scan(0.0, WALLS, (0.0, 0.0, 0.0))
+    slam.add_scan(0.2, WALLS - [0.3, 0.0], (0.3, 0.0, 0.0))          # keyframe 1
+    tag = np.array([1.8, 0.5])
+    for t in (0.3, 0.5):
+        wheels = (0.3, 0.0, 0.06)                                      # the true base: (0.3, 0, 0)
+        assert slam.add_tag(t, "tag36h11:9", tag - (0.3, 0.0), np.diag([1e-4, 1e-4]), wheels) is None
+    slam.graph.update()
+    np.testing.assert_allclose(slam.graph.landmarks()["tag36h11:9"], tag, atol=0.01)
 
 
 def test_a_loop_closure_that_jumps_beyond_the_poses_uncertainty_is_refused(two_laps):

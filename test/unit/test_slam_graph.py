@@ -223,6 +223,40 @@ def test_a_wrong_first_sighting_is_replaced_not_trusted():
     assert np.allclose(graph.landmarks()["tag_1"], (2.0, 1.0), atol=1e-6)
 
 
+def test_a_tag_seen_at_the_start_and_the_end_of_a_loop_takes_the_drift_out():
+    """A 16 m loop with odometry that drifts (heading std 0.01 rad per step, 64 steps: 0.08 rad
+    at the end, ~0.25 m of position there) and a tag at (1, -1) seen from the first and the
+    last keyframes within 2.5 m (8 sightings, 5 mm each). The tag ties the end to the start:
+    over 10 seeds the median end error falls from > 0.2 m to < 0.07 m, and the tag itself is
+    within 2 cm (its first sightings are from poses within ~0.02 m of the prior's)."""
+    poses, _ = square_laps(laps=1, side_m=4.0, step_m=0.25)
+    truth = np.vstack([poses, poses[:1]])                    # back at the start
+    tag = np.array([1.0, -1.0])
+    odom_cov = np.diag([0.005 ** 2, 0.005 ** 2, 0.01 ** 2])
+    tag_cov = np.eye(2) * 0.005 ** 2
+
+    def drive(landmarks: bool, seed: int):
+        rng = np.random.default_rng(seed)
+        graph, est = PoseGraph(), gtsam.Pose2()
+        for k in range(1, len(truth)):
+            step = noisy(between(truth[k - 1], truth[k]), odom_cov, rng)
+            est = est.compose(gtsam.Pose2(*step))
+            graph.add_keyframe((est.x(), est.y(), est.theta()), [(k - 1, step, odom_cov)])
+            graph.update()
+            seen = between(truth[k], (*tag, 0.0))[:2]
+            if landmarks and np.hypot(*seen) < 2.5 and seen[0] > 0.3:
+                assert graph.add_landmark("tag36h11:1", k, seen + rng.normal(0.0, 0.005, 2), tag_cov) is None
+        graph.update()
+        end = float(np.hypot(*(graph.poses()[-1, :2] - truth[-1, :2])))
+        return end, graph.landmarks().get("tag36h11:1")
+
+    without = [drive(False, seed)[0] for seed in range(10)]
+    with_tags = [drive(True, seed) for seed in range(10)]
+    assert np.median(without) > 0.2
+    assert np.median([end for end, _ in with_tags]) < 0.07
+    assert np.median([np.hypot(*(xy - tag)) for _, xy in with_tags]) < 0.02
+
+
 # ----------------------------------------------------------------------------- state
 def test_reset_forgets_everything():
     graph = chain()

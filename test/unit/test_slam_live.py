@@ -80,7 +80,7 @@ def test_live_slam_holds_a_scan_for_the_gyro_publishes_saves_and_resets(tmp_path
     assert isinstance(update, PathUpdate) and update.stamps == [0.1] and update.loops == []
     np.testing.assert_allclose(update.poses, [[0.0, 0.0, 0.0]])
     assert live.map_to_odom == (0.0, 0.0, 0.0)
-    assert live.add_tag(0.15, "tag36h11:3", np.array([1.0, 0.5, 0.3]), np.eye(3) * 0.01) is None
+    assert live.add_tag(0.15, "tag36h11:3", np.array([1.0, 0.5, 0.3]), np.eye(3) * 0.01, (0.0, 0.0, 0.0)) is None
     line = live.save(str(tmp_path / "out"), "test")
     assert line.startswith(f"graph and trajectories saved (test) to {tmp_path / 'out'}")
     assert (tmp_path / "out" / "graph.g2o").stat().st_size > 0
@@ -94,7 +94,7 @@ def test_live_slam_holds_a_scan_for_the_gyro_publishes_saves_and_resets(tmp_path
     assert live.map_to_odom is None and live.odom_poses == [] and not live.queue.pending
     assert live.core.graph is None and live.core.counts["resets"] == 1
     assert "state cleared: time jumped back to 3.00 s" in live.take_events()
-    assert live.add_tag(3.1, "tag36h11:3", np.zeros(3), np.eye(3)) == "no keyframe yet"
+    assert live.add_tag(3.1, "tag36h11:3", np.zeros(3), np.eye(3), (0.0, 0.0, 0.0)) == "no keyframe yet"
 
 
 def test_live_localization_publishes_every_match_and_takes_rviz_poses(tmp_path):

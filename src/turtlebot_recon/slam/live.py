@@ -183,9 +183,11 @@ class LiveSlam(_Session):
         self.core.add_imu(stamp_s, yaw_rate_radps)
         return self._update(self.queue.add_imu(stamp_s))
 
-    def add_tag(self, stamp_s: float, name: str, xyz_base: np.ndarray, cov_base: np.ndarray) -> Optional[str]:
-        """A plausible tag (``tag_in_base``, ``tag_plausible``); why it was not used, or None."""
-        return self.core.add_tag(stamp_s, name, xyz_base[:2], cov_base[:2, :2])
+    def add_tag(self, stamp_s: float, name: str, xyz_base: np.ndarray, cov_base: np.ndarray,
+                odom_pose) -> Optional[str]:
+        """A plausible tag (``tag_in_base``, ``tag_plausible``) with the odometry pose at its
+        image's stamp; why it was not used, or None."""
+        return self.core.add_tag(stamp_s, name, xyz_base[:2], cov_base[:2, :2], odom_pose)
 
     def _update(self, scans) -> Optional[PathUpdate]:
         added = False

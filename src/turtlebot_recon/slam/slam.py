@@ -3,8 +3,9 @@ GTSAM's iSAM2.
 
 One ``Slam`` object takes plain data: wheel-odometry poses (the odom frame) and IMU yaw rates as
 they come, scans as points in the base frame with the odometry pose at their stamp, tags as
-positions in the base frame. Every ``keyframe_distance_m`` or ``keyframe_angle_rad`` of odometry
-a scan becomes a keyframe, tied to the one before it by two factors:
+positions in the base frame with the odometry pose at their image's stamp (``add_tag``). Every
+``keyframe_distance_m`` or ``keyframe_angle_rad`` of odometry a scan becomes a keyframe, tied to
+the one before it by two factors:
 
 * wheel odometry, with a covariance from the wheel-slip model the simulator uses (variance per
   wheel grows with the distance it rolls);
@@ -157,7 +158,7 @@ class Keyframe:
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))   # odometry's (vx, vy, yaw rate), body frame
 
 
-def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarray:
+def odometry_covariance(delta, separation_m: float, s: SlamSettings, lever: bool = True) -> np.ndarray:
     """The covariance of an odometry step ``delta`` (x, y, yaw in the first pose's frame) from
     the wheel-slip model: each wheel's travel error has variance slip^2 * |its travel|, so
     forward travel d and turn a give var(d) = (vl + vr) / 4, var(a) = (vl + vr) / B^2 and
@@ -168,7 +169,8 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     var(a) / 12, 0), S the (d, a) covariance: positive semi-definite for any step (without the
     x-y term, a step that turns while it travels, 0.9 m and 0.9 rad, had a negative
     eigenvalue). Floors are added, and (odom_turn_std_m_per_rad * a)^2 to x and y: a turn in
-    place moves a scan frame that sits off the turning centre by a chord of that lever."""
+    place moves a scan frame that sits off the turning centre by a chord of that lever (with
+    ``lever``; without, for the base frame itself)."""
     d = math.hypot(delta[0], delta[1])
     a = float(delta[2])
     half = 0.5 * separation_m * a
@@ -180,8 +182,8 @@ def odometry_covariance(delta, separation_m: float, s: SlamSettings) -> np.ndarr
     cov = np.array([[var_d, 0.5 * d * cov_da, cov_da],
                     [0.5 * d * cov_da, d * d * var_a / 3.0, 0.5 * d * var_a],
                     [cov_da, 0.5 * d * var_a, var_a]])
-    lever = (s.odom_turn_std_m_per_rad * a) ** 2
-    return cov + np.diag([s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_m ** 2 + lever, s.odom_floor_std_rad ** 2])
+    chord = (s.odom_turn_std_m_per_rad * a) ** 2 if lever else 0.0
+    return cov + np.diag([s.odom_floor_std_m ** 2 + chord, s.odom_floor_std_m ** 2 + chord, s.odom_floor_std_rad ** 2])
 
 
 def timing_covariance(delta, velocity_start, velocity_end, timing_std_s: float) -> np.ndarray:
@@ -366,22 +368,62 @@ class Slam:
         var = np.array([d * d, d * d, a * a])
         self._jump_var = var if self._jump_var is None else self._jump_var + var
 
-    def add_tag(self, stamp_s: float, name: str, xy_base, covariance_xy) -> Optional[str]:
-        """A tag seen at ``xy_base`` (base frame at ``stamp_s``): tied to the last keyframe
-        through the odometry between them. Returns a reason if it was not used."""
+    def add_tag(self, stamp_s: float, name: str, xy_base, covariance_xy, odom_pose) -> Optional[str]:
+        """A tag seen at ``xy_base`` (m, base frame) with its 2x2 covariance in the image taken at
+        ``stamp_s``, when odometry put the base at ``odom_pose`` (odom frame: the node looks it
+        up at the image's stamp). It is tied to the keyframe nearest in time through the
+        odometry step from that keyframe's pose to ``odom_pose`` (from the last keyframe, the
+        step's heading fused with the gyro's turn as a keyframe step's is), the step's
+        covariance carried into the sighting's. Returns a reason if it was not used.
+
+        The pose at the image's stamp, not the newest scan's: scans and images are not
+        synchronised, and a detection reaches the node after the detector's latency (up to 1 s
+        seen on a loaded machine), scans and keyframes having come meanwhile: the newest scan's
+        pose had turned up to 0.6 rad from the image's in a house run (docs/benchmarks.md)."""
         if not self.keyframes or self.last_odom is None:
             return "no keyframe yet"
-        last = self.keyframes[-1]
-        if stamp_s < last.stamp_s - 1.0:
-            return f"seen at {stamp_s:.2f} s, before the last keyframe ({last.stamp_s:.2f} s)"
-        # the base at the tag's stamp, relative to the last keyframe (odometry; the newest pose
-        # stands in for one at the stamp: tags come at camera rate, within a scan period)
-        rel = between(last.odom, self.last_odom[1])
-        xy = compose(rel, (float(xy_base[0]), float(xy_base[1]), 0.0))[:2]
+        if stamp_s < self.keyframes[0].stamp_s:
+            return f"seen at {stamp_s:.2f} s, before the first keyframe ({self.keyframes[0].stamp_s:.2f} s)"
+        odom = np.asarray(odom_pose, float)
+        if odom.shape != (3,) or not np.isfinite(odom).all():
+            return f"the odometry pose at the tag's stamp must be 3 finite numbers, got {odom_pose!r}"
+        key = self._keyframe_near(stamp_s)
+        rel, rel_cov = self._step_to(key, stamp_s, between(self.keyframes[key].odom, odom))
+        xy_obs = np.array([float(xy_base[0]), float(xy_base[1])])
+        c, s = math.cos(rel[2]), math.sin(rel[2])
+        R = np.array([[c, -s], [s, c]])
+        xy = rel[:2] + R @ xy_obs
+        # the sighting in the keyframe's frame: d xy = d t + d theta R (-y, x) + R d xy_obs
+        J = np.column_stack([np.eye(2), R @ np.array([-xy_obs[1], xy_obs[0]])])
         try:
-            return self.graph.add_landmark(name, len(self.keyframes) - 1, xy, np.asarray(covariance_xy, float))
+            cov = R @ np.asarray(covariance_xy, float) @ R.T + J @ rel_cov @ J.T
+            return self.graph.add_landmark(name, key, xy, cov)
         except ValueError as exc:       # NaN, a covariance that is not one: refused, graph untouched
             return str(exc)
+
+    def _keyframe_near(self, stamp_s: float) -> int:
+        """The keyframe whose stamp is nearest ``stamp_s`` (the newest ones first: a tag is
+        seen within a few keyframes of the last)."""
+        best = len(self.keyframes) - 1
+        for k in range(len(self.keyframes) - 1, -1, -1):
+            if abs(self.keyframes[k].stamp_s - stamp_s) <= abs(self.keyframes[best].stamp_s - stamp_s):
+                best = k
+            if self.keyframes[k].stamp_s <= stamp_s:
+                break
+        return best
+
+    def _step_to(self, key: int, stamp_s: float, rel: np.ndarray) -> tuple:
+        """The odometry step ``rel`` from keyframe ``key`` to ``stamp_s`` and its covariance: the
+        wheels' model without the lever term (that moves a scan frame off the turning centre;
+        the base frame turns on it); from the last keyframe forward in time, its heading fused
+        with the gyro's turn (``_predict``; the samples are read, not consumed: those before the
+        last keyframe are gone)."""
+        cov = odometry_covariance(rel, self.separation, self.s, lever=False)
+        t0 = self.keyframes[key].stamp_s
+        if key != len(self.keyframes) - 1 or stamp_s <= t0:
+            return rel, cov
+        gyro = self._gyro_step(t0, stamp_s, *self._integrate_gyro(t0, stamp_s, consume=False))
+        return self._predict(rel, cov, gyro)
 
     # ------------------------------------------------------------------ outputs
     def map_to_odom(self) -> np.ndarray:
@@ -406,6 +448,10 @@ class Slam:
         last = self.graph.last_bias() if self.graph is not None else None
         if last is not None:
             out["gyro_bias_radps"], out["gyro_bias_std_radps"] = self.graph.bias(last), self.graph.bias_std(last)
+        if self.graph is not None:     # tag landmarks: in the graph, sightings used, refused by the gate
+            lm = self.graph.landmark_stats()
+            out.update(landmarks=lm["landmarks"], landmark_sightings=lm["sightings"],
+                       landmark_rejected=lm["rejected"])
         tried = self.counts["loop_tried"]
         out["loop_acceptance_rate"] = self.counts["loop_accepted"] / tried if tried else None
         return out
@@ -429,15 +475,19 @@ class Slam:
             cov = cov + timing_covariance(delta, self.keyframes[-1].velocity, self.odom_watch.velocity(),
                                           self.s.odom_timing_std_s)
         t0 = self.keyframes[-1].stamp_s
-        raw, covered, samples = self._integrate_gyro(t0, stamp_s)
-        span = stamp_s - t0
+        return cov, self._gyro_step(t0, stamp_s, *self._integrate_gyro(t0, stamp_s))
+
+    def _gyro_step(self, t0: float, t1: float, raw: float, covered: float, samples: int) -> Optional[GyroStep]:
+        """The gyro over (t0, t1] (``_integrate_gyro``'s figures) as a ``GyroStep``; None
+        where it measured no turn."""
+        span = t1 - t0
         if not self.s.use_imu or samples == 0 or span <= 0.0 or covered < span - 1e-6:
             # a gap in the gyro's samples, or a step of no duration (stamps out of order): no gyro
             # sample measured its turn, wheel odometry alone
-            return cov, None
+            return None
         period = covered / max(1, samples)
         # white noise per sample over span / period samples
-        return cov, GyroStep(raw, span, self.s.gyro_noise_std_radps ** 2 * period * span)
+        return GyroStep(raw, span, self.s.gyro_noise_std_radps ** 2 * period * span)
 
     def _gyro_turn(self, gyro: GyroStep) -> tuple:
         """The true turn the gyro's step measures, its bias (the graph's estimate at the last
@@ -492,12 +542,12 @@ class Slam:
             self.graph.add_bias(j, walk_from=m, walk_std=walk)
         self.counts["imu_fused"] += int(gyro is not None)
 
-    def _integrate_gyro(self, t0: float, t1: float) -> tuple:
+    def _integrate_gyro(self, t0: float, t1: float, consume: bool = True) -> tuple:
         """The heading change over (t0, t1] from the gyro, the time its samples covered and how
         many samples contributed: each
         sample is the mean rate over the interval since the one before it, so the integral is
-        exact however the samples fall against t0 and t1. Samples before t1 are dropped, but
-        the last one (it opens the next interval)."""
+        exact however the samples fall against t0 and t1. With ``consume``, samples before t1
+        are dropped, but the last one (it opens the next interval)."""
         g = self.gyro
         yaw = covered = 0.0
         samples = 0
@@ -517,8 +567,9 @@ class Slam:
             if tail <= 3.0 * covered / samples:
                 yaw += g[-1][1] * tail
                 covered += tail
-        keep = max((i for i, (t, _) in enumerate(g) if t <= t1), default=0)
-        self.gyro = g[keep:]
+        if consume:
+            keep = max((i for i, (t, _) in enumerate(g) if t <= t1), default=0)
+            self.gyro = g[keep:]
         return yaw, covered, samples
 
     def _submap(self, lo: int, hi: int) -> np.ndarray:
