@@ -66,12 +66,12 @@ CASES = {
     "none_slam": ("none", None, MAP + ["slam:=true"], "go_on"),
     "none_tags": ("none", None, TAGS, "go_on"),
     "kill_sim_bridge": ("kill", "sim_bridge", MAP, "end"),
-    "kill_mapper": ("kill", "mapper", MAP, "end"),
+    "kill_mapper": ("kill", "mapper", MAP, "restart"),          # it resumes from its autosave
     "kill_slam": ("kill", "slam", MAP + ["slam:=true"], "end"),
     "kill_explorer": ("kill", "explorer", MAP, "end"),
     "kill_navigator": ("kill", "navigator", MAP, "restart"),
     "kill_tag_detector": ("kill", "tag_detector", TAGS, "restart"),
-    "kill_tag_tracker": ("kill", "tag_tracker", TAGS, "end"),
+    "kill_tag_tracker": ("kill", "tag_tracker", TAGS, "restart"),  # it resumes from its tags.yaml
     "kill_evaluator": ("kill", "evaluator", MAP, "end"),
     "stall_2s": ("inject", ["--fault", "stall", "--duration-s", "2"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
     "stall_10s": ("inject", ["--fault", "stall", "--duration-s", "10"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
