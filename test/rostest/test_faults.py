@@ -192,6 +192,10 @@ def test_a_disk_that_fills_during_the_run_ends_it_with_one_line_naming_it(small_
     assert proc.returncode == 1, out[-3000:]
     assert last.startswith(f"[run] failed: evaluator ended without writing {small_disk}/report.json: evaluator: "
                            f"cannot write the run output to {small_disk}: [Errno 28] No space left on device"), last
+    # the nodes' saves on the full disk (the mapper's autosave and its last save, the tracker's)
+    # are one line each, no traceback
+    assert "Traceback" not in out, out[-3000:]
+    assert out.count("mapper: cannot autosave the map") <= 1, out[-3000:]
 
 
 def test_a_lidar_that_never_publishes_is_named_in_the_report(tmp_path):

@@ -36,6 +36,13 @@ def test_a_fifth_of_the_scans_lost_is_said_once_with_its_share():
                                "the lidar's 5.0 Hz)"), lines[0]
 
 
+def test_a_loss_that_dips_under_the_line_for_a_window_is_still_one_episode():
+    watch = StreamWatch("/scan")
+    assert len(feed(watch, 0.0, 20.0, drop_every=5)) == 1          # 20 %
+    assert feed(watch, 20.0, 30.0, drop_every=12) == []            # 8 %: under 10 %, over 5 %
+    assert feed(watch, 30.0, 120.0, drop_every=5) == []            # the same episode
+
+
 def test_a_new_episode_after_a_quiet_spell_is_said_again():
     watch = StreamWatch("/scan")
     assert len(feed(watch, 0.0, 20.0, drop_every=5)) == 1

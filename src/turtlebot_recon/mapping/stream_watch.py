@@ -7,8 +7,10 @@
   of them within TF_LATE_WINDOW_S make an episode;
 and the clock jumping back is said by the node at each jump (``Mapper.time_jumped_back``).
 
-An episode is said once, when it begins; it ends after EPISODE_QUIET_S (sim) without the fault,
-and the next one is said again, at most one line per kind every LINE_MIN_GAP_S. ROS-free: the
+An episode is said once, when it begins; a loss episode ends with a measurement under half
+SCAN_LOSS_SAY (a steady 20 % loss dips under 10 % in one window of 20, under 5 % in one of
+1,000), a TF one after EPISODE_QUIET_S (sim) without a late transform; the next one is said
+again, at most one line per kind every LINE_MIN_GAP_S. ROS-free: the
 node passes times (s) and gets back the line to log, or None.
 """
 from __future__ import annotations
@@ -20,21 +22,22 @@ SCAN_LOSS_SAY = 0.10        # a share of scans missing above this is said (a fau
 TF_LATE_SKIPS = 10          # scans skipped for a late TF within TF_LATE_WINDOW_S: an episode (a
                             # fifth of a 5 Hz lidar's; fault-free on a loaded machine: 7 in 240 s)
 TF_LATE_WINDOW_S = 10.0     # sim s
-EPISODE_QUIET_S = 10.0      # sim s without the fault end its episode
+EPISODE_QUIET_S = 10.0      # sim s without a late transform end a TF episode
 LINE_MIN_GAP_S = 30.0       # sim s between two lines of one kind
 
 
 class _Episode:
-    """One kind of fault: its start said once; quiet for EPISODE_QUIET_S ends it."""
+    """One kind of fault: its start said once; ``end``, or ``quiet_s`` without a sign, ends it."""
 
-    def __init__(self):
+    def __init__(self, quiet_s: float):
+        self.quiet_s = quiet_s
         self.last_seen_s = -math.inf      # the fault's last sign
         self.said_s = -math.inf           # when its line was last said
         self.open = False
 
     def seen(self, now_s: float) -> bool:
         """The fault seen at ``now_s``: True when a line is due (a new episode, not throttled)."""
-        if self.open and now_s - self.last_seen_s > EPISODE_QUIET_S:
+        if self.open and now_s - self.last_seen_s > self.quiet_s:
             self.open = False
         self.last_seen_s = now_s
         if self.open or now_s - self.said_s < LINE_MIN_GAP_S:
@@ -42,6 +45,9 @@ class _Episode:
             return False
         self.open, self.said_s = True, now_s
         return True
+
+    def end(self) -> None:
+        self.open = False
 
 
 class StreamWatch:
@@ -54,7 +60,7 @@ class StreamWatch:
         self.received = 0              # scans in the window after its first
         self.missing = 0               # scans the stamps' gaps say were lost, in the window
         self.late = []                 # sim times of scans skipped for a late TF, in the window
-        self.episodes = {kind: _Episode() for kind in ("loss", "tf")}
+        self.episodes = {"loss": _Episode(math.inf), "tf": _Episode(EPISODE_QUIET_S)}
 
     def scan(self, stamp_s: float, scan_time_s: float) -> str | None:
         """A scan stamped ``stamp_s`` from a lidar that sends one every ``scan_time_s`` (its
@@ -73,6 +79,8 @@ class StreamWatch:
         expected = self.received + self.missing
         lost = self.missing / expected
         self.window_from_s, self.received, self.missing = stamp_s, 0, 0
+        if lost < SCAN_LOSS_SAY / 2:
+            self.episodes["loss"].end()
         if lost <= SCAN_LOSS_SAY or not self.episodes["loss"].seen(stamp_s):
             return None
         return (f"{self.who}: {100 * lost:.0f} % of the scans on {self.topic} missing over the last {span:.0f} s "
