@@ -18,7 +18,7 @@ import numpy as np
 
 from conftest import node_pid
 from turtlebot_recon.mapping.map_io import load_map
-from turtlebot_recon.mapping.resume import load_resume
+from turtlebot_recon.mapping.resume import decided, known_cells, load_resume
 from turtlebot_recon.perception.tracker import load_tags_yaml
 
 TOP = Path(__file__).resolve().parents[2]
@@ -93,13 +93,6 @@ def test_a_killed_navigator_is_restarted_and_the_run_goes_on(tmp_path):
     assert report["coverage_final"] > 0.2 and report["collisions"] == 0
 
 
-def known_cells(occupancy_known: np.ndarray, resolution: float, origin) -> set:
-    """The known cells as (x, y) cell indices in a frame shared by grids of other origins."""
-    rows, cols = np.nonzero(occupancy_known)
-    ox, oy = round(origin[0] / resolution), round(origin[1] / resolution)
-    return set(zip((cols + ox).tolist(), (rows + oy).tolist()))
-
-
 def test_a_killed_mapper_resumes_from_its_autosave_and_the_final_map_keeps_it(tmp_path):
     port = free_port()
     proc, lines = start(tmp_path, "budget:=60", port=port)
@@ -124,7 +117,7 @@ def test_a_killed_mapper_resumes_from_its_autosave_and_the_final_map_keeps_it(tm
     # the map the run ends with (the evaluator's ~save_map of the resumed mapper) holds every
     # cell the dead mapper had saved
     occ, res_final, origin = load_map(tmp_path / "map.yaml")
-    before = known_cells(~np.isnan(before_logodds), res, before_origin)
+    before = known_cells(decided(before_logodds), res, before_origin)   # the cells a saved map keeps
     after = known_cells(occ >= 0, res_final, origin)
     assert len(before) > 2000 and len(before - after) <= 0.01 * len(before), (len(before), len(before - after))
     assert len(after) > len(before)                   # and the resumed mapper went on mapping

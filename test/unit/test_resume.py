@@ -10,7 +10,7 @@ import pytest
 from test_tag_tracker import WALL, camera, seen
 from turtlebot_recon.files import write_atomic
 from turtlebot_recon.mapping.mapper import Mapper, MapperSettings, Scan
-from turtlebot_recon.mapping.resume import load_resume, resume_path, save_resume
+from turtlebot_recon.mapping.resume import decided, known_cells, load_resume, resume_path, save_resume
 from turtlebot_recon.perception.tracker import (CONFIRMED, TagTracker, TrackerSettings, load_tags_yaml,
                                                 resumable_tracks, to_standalone_tags_yaml)
 
@@ -97,3 +97,18 @@ def test_a_restarted_tracker_goes_on_from_its_tags_yaml():
     T = camera(1.0, 0.0, 0.0)                               # a sighting fuses into the resumed track
     assert new.update(seen(T, WALL), T, 20.0) == "fused"
     assert new.tags()[0].sightings == 4
+
+
+def test_known_cells_of_two_origins_meet_in_one_frame():
+    # a 2 x 3 grid at origin (0, 0) and the same cells seen by a grid starting 1 cell left
+    # (origin -0.05): its column 1 is the first grid's column 0
+    a = np.array([[True, False, False], [False, False, True]])
+    b = np.array([[False, True, False, False], [False, False, False, True]])
+    assert known_cells(a, 0.05, (0.0, 0.0)) == {(0, 0), (2, 1)}
+    assert known_cells(b, 0.05, (-0.05, 0.0)) == known_cells(a, 0.05, (0.0, 0.0))
+
+
+def test_decided_cells_are_those_a_saved_map_keeps():
+    # p = 0.2 (20 %: free), 0.5 (unknown in a PGM), 0.7 (70 %: occupied), NaN (unknown)
+    logodds = np.log(np.array([[0.2 / 0.8, 1.0, 0.7 / 0.3, np.nan]], np.float32))
+    assert decided(logodds).tolist() == [[True, False, True, False]]

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import write_atomic
+from .map_io import FREE_THRESH, OCCUPIED_THRESH
 
 RESUME_SUFFIX = ".resume.npz"
 
@@ -55,3 +56,20 @@ def load_resume(path: str | Path, key: str):
         raise ValueError(f"{path}: not a mapper resume file: log-odds {logodds.dtype} {logodds.shape}, "
                          f"origin {origin.shape}")
     return logodds, resolution, (float(origin[0]), float(origin[1])), stamp_s
+
+
+def known_cells(known: np.ndarray, resolution: float, origin_xy) -> set:
+    """The cells where ``known`` (bool (rows, cols)) is true, as (x, y) cell indices from the
+    frame's origin: comparable between two grids of one resolution and different origins (a
+    resumed map against the final one)."""
+    rows, cols = np.nonzero(known)
+    ox, oy = round(float(origin_xy[0]) / resolution), round(float(origin_xy[1]) / resolution)
+    return set(zip((cols + ox).tolist(), (rows + oy).tolist()))
+
+
+def decided(logodds: np.ndarray) -> np.ndarray:
+    """The cells a saved map_server map keeps as free or occupied (map_saver's thresholds; the
+    ones in between it writes as unknown), from log-odds (NaN unknown)."""
+    with np.errstate(invalid="ignore"):
+        percent = 100.0 / (1.0 + np.exp(-np.asarray(logodds, float)))
+        return (percent <= FREE_THRESH) | (percent >= OCCUPIED_THRESH)
