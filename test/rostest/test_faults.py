@@ -93,6 +93,21 @@ def test_a_killed_navigator_is_restarted_and_the_run_goes_on(tmp_path):
     assert report["coverage_final"] > 0.2 and report["collisions"] == 0
 
 
+def killed_and_resumed(proc, lines, node: str, port: int, what: str, run_dir: Path, timeout_s: float = 180.0) -> tuple:
+    """SIGKILL ``node``; the run must go on to its budget with the node restarted, resuming
+    from ``what`` it saved. (the run's lines, its report.json)."""
+    pid = node_pid(node, port)
+    assert pid is not None, "".join(lines[-20:])
+    os.kill(pid, signal.SIGKILL)
+    out = end(proc, lines, timeout_s=timeout_s)
+    assert proc.returncode == 0, out[-3000:]
+    assert (f"[run] node {node} exited with status -9: restarting it (restart 1 of at most 3; it resumes from "
+            f"{what})") in out, out[-3000:]
+    report = json.loads((run_dir / "report.json").read_text())
+    assert report["node_respawns"] == [f"{node} exited with status -9, restarted"]
+    return out, report
+
+
 def test_a_killed_mapper_resumes_from_its_autosave_and_the_final_map_keeps_it(tmp_path):
     port = free_port()
     proc, lines = start(tmp_path, "budget:=60", port=port)
@@ -100,19 +115,11 @@ def test_a_killed_mapper_resumes_from_its_autosave_and_the_final_map_keeps_it(tm
     resume = tmp_path / "map.resume.npz"
     wait_for_file(resume)                             # the first autosave (10 s sim)
     time.sleep(2.0)
-    pid = node_pid("mapper", port)
-    assert pid is not None, "".join(lines[-20:])
-    os.kill(pid, signal.SIGKILL)
     with np.load(resume) as f:
         key = str(f["key"])                           # this launch's resume_key
     before_logodds, res, before_origin, _ = load_resume(resume, key)
-    out = end(proc, lines)
-    assert proc.returncode == 0, out[-3000:]
-    assert ("[run] node mapper exited with status -9: restarting it (restart 1 of at most 3; it resumes from "
-            "the map it saved)") in out, out[-3000:]
+    out, report = killed_and_resumed(proc, lines, "mapper", port, "the map it saved", tmp_path)
     assert f"mapper: resuming from {resume}, saved at " in out, out[-3000:]
-    report = json.loads((tmp_path / "report.json").read_text())
-    assert report["node_respawns"] == ["mapper exited with status -9, restarted"]
     assert report["finished_reason"] == "time budget 60 s spent", report["finished_reason"]
     # the map the run ends with (the evaluator's ~save_map of the resumed mapper) holds every
     # cell the dead mapper had saved
@@ -132,16 +139,10 @@ def test_a_killed_tag_tracker_resumes_from_its_tags_and_the_final_list_keeps_the
     wait_for_file(tags_yaml)                          # the autosave (at most 2 s sim after)
     time.sleep(1.0)
     before = {(t.family, t.id) for t in load_tags_yaml(tags_yaml.read_text())}
-    pid = node_pid("tag_tracker", port)
-    assert pid is not None and before, "".join(lines[-20:])
-    os.kill(pid, signal.SIGKILL)
-    out = end(proc, lines, timeout_s=300.0)
-    assert proc.returncode == 0, out[-3000:]
-    assert ("[run] node tag_tracker exited with status -9: restarting it (restart 1 of at most 3; it resumes "
-            "from the tags it saved)") in out, out[-3000:]
+    assert before
+    out, _ = killed_and_resumed(proc, lines, "tag_tracker", port, "the tags it saved", tmp_path,
+                                timeout_s=300.0)
     assert f"tag_tracker: resuming from {tags_yaml}, saved by a tracker of this run" in out, out[-3000:]
-    report = json.loads((tmp_path / "report.json").read_text())
-    assert report["node_respawns"] == ["tag_tracker exited with status -9, restarted"]
     after = {(t.family, t.id) for t in load_tags_yaml(tags_yaml.read_text())}
     assert before <= after, (before, after)           # the tags found before the kill are in the final list
 
