@@ -9,7 +9,10 @@ output/bench/faults/<case>/ (launch.log: the launcher's and the nodes' lines; in
 injector's). The faults:
 
 - kill: SIGKILL to one node (its pid found by its ``__name:=`` and the run's master port),
-  KILL_AFTER_WALL_S after the explorer said it started;
+  KILL_AFTER_WALL_S after the explorer said it started (the tag tracker: after its first
+  confirmed tag, so that it has something to resume); for the two nodes that resume (the
+  mapper, the tag tracker) ``kept`` compares what their file held at the kill with the run's
+  final map (known cells) or tag list;
 - stall_2s, stall_10s, drop_20pct, tf_delay_0.3s, clock_jump: test/benchmarks/fault_injector.py
   beside the run (scans or TF relayed through it: the launch's test-only ``bridge_scan`` /
   ``bridge_tf`` arguments; the clock jump is one /clock message 5 s back, as a looping bag);
@@ -43,8 +46,13 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import TOP, write  # noqa: E402
+from turtlebot_recon.mapping.map_io import load_map  # noqa: E402
+from turtlebot_recon.mapping.resume import decided, known_cells, resume_path  # noqa: E402
+from turtlebot_recon.perception.tracker import load_tags_yaml  # noqa: E402
 
 OUT = TOP / "output" / "bench" / "faults"
 RESULTS = TOP / "docs" / "results"
@@ -66,12 +74,12 @@ CASES = {
     "none_slam": ("none", None, MAP + ["slam:=true"], "go_on"),
     "none_tags": ("none", None, TAGS, "go_on"),
     "kill_sim_bridge": ("kill", "sim_bridge", MAP, "end"),
-    "kill_mapper": ("kill", "mapper", MAP, "end"),
+    "kill_mapper": ("kill", "mapper", MAP, "restart"),          # it resumes from its autosave
     "kill_slam": ("kill", "slam", MAP + ["slam:=true"], "end"),
     "kill_explorer": ("kill", "explorer", MAP, "end"),
     "kill_navigator": ("kill", "navigator", MAP, "restart"),
     "kill_tag_detector": ("kill", "tag_detector", TAGS, "restart"),
-    "kill_tag_tracker": ("kill", "tag_tracker", TAGS, "end"),
+    "kill_tag_tracker": ("kill", "tag_tracker", TAGS, "restart"),  # it resumes from its tags.yaml
     "kill_evaluator": ("kill", "evaluator", MAP, "end"),
     "stall_2s": ("inject", ["--fault", "stall", "--duration-s", "2"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
     "stall_10s": ("inject", ["--fault", "stall", "--duration-s", "10"], MAP + ["bridge_scan:=scan_raw"], "go_on"),
@@ -91,6 +99,7 @@ INTENDED = {
     "named_end": "the run ends (its map stands still), report.json's finished_reason naming the cause",
 }
 LIDAR_NAMED = "no scan on /scan"         # the explorer's reason when the lidar fell silent
+KILL_WHEN = {"tag_tracker": "tag_tracker: confirmed"}   # a node's kill waits for this line (default: the explorer's start)
 INTENDED_FULL_FS = ("the run ends with one line saying what could not be written (no space left), "
                     "non-zero exit; no report where none fits")
 
@@ -265,6 +274,7 @@ def run_case(name: str, baseline) -> dict:
             return {"case": name, "skipped": f"mount -t tmpfs failed: {r.stderr.strip()}"}
         mounted = True
     port = free_port()
+    held = None
     shm_before = shm_entries()
     t0 = time.monotonic()
     proc, log_path = launch(case_dir, run_dir, args, port, tag=f"faults/{name}")
@@ -277,19 +287,22 @@ def run_case(name: str, baseline) -> dict:
                                         env=run_env(port, case_dir / "ros_home"), start_new_session=True)
             inject_log.close()
         if fault in ("kill", "full_fs"):
-            if wait_for_line(log_path, "explorer: started", proc):
-                time.sleep(KILL_AFTER_WALL_S if fault == "kill" else FILL_AFTER_WALL_S)
+            when = KILL_WHEN.get(what, "explorer: started") if fault == "kill" else "explorer: started"
+            if wait_for_line(log_path, when, proc, timeout_s=240.0):
+                time.sleep(KILL_AFTER_WALL_S if fault == "kill" and when == "explorer: started" else
+                           FILL_AFTER_WALL_S if fault == "full_fs" else 3.0)     # 3 s: the tracker's autosave
                 if fault == "kill":
                     pid = node_pid(what, port)
                     if pid is None:
                         fault_done = f"no {what} process found"
                     else:
+                        held = held_at_kill(what, run_dir)
                         os.kill(pid, signal.SIGKILL)
                         fault_done = f"SIGKILL to {what} (pid {pid}) {time.monotonic() - t0:.0f} s (wall) into the run"
                 else:
                     fault_done = f"the run directory's tmpfs filled ({fill(run_dir)})"
             else:
-                fault_done = "the explorer never started: no fault injected"
+                fault_done = f"no '{when}' line: no fault injected"
         rc, hung = finish(proc, t0)
     finally:
         if proc.poll() is None:
@@ -376,9 +389,40 @@ def run_case(name: str, baseline) -> dict:
         "leaked_processes": sorted(leaked.values()), "port_still_listening": listening, "shm_new": shm_new,
         "args": args,
     }
+    if held is not None:
+        row["kept"] = kept_after_kill(what, held, run_dir)
     row["as_intended"] = as_intended(row)
     (case_dir / "case.json").write_text(json.dumps(row, indent=2) + "\n")
     return row
+
+
+def held_at_kill(node: str, run_dir: Path):
+    """What a node that resumes had saved in the run directory when killed: the mapper's known
+    cells (x, y indices in a frame shared by any origin), the tag tracker's (family, id); None
+    for the other nodes."""
+    try:
+        if node == "mapper":
+            with np.load(resume_path(run_dir / "map")) as f:
+                return known_cells(decided(f["logodds"]), float(f["resolution"]), f["origin"])
+        if node == "tag_tracker":
+            return {(t.family, t.id) for t in load_tags_yaml((run_dir / "tags.yaml").read_text())}
+    except (OSError, ValueError, KeyError):
+        return set()
+    return None
+
+
+def kept_after_kill(node: str, held: set, run_dir: Path) -> dict:
+    """How much of what the node held at its kill the run's final files keep."""
+    try:
+        if node == "mapper":
+            occ, res, origin = load_map(run_dir / "map.yaml")
+            final = known_cells(occ >= 0, res, origin)
+        else:
+            final = {(t.family, t.id) for t in load_tags_yaml((run_dir / "tags.yaml").read_text())}
+    except (OSError, ValueError):
+        final = set()
+    what = "known cells" if node == "mapper" else "confirmed tags"
+    return {"what": what, "at_kill": len(held), "in_final": len(held & final), "final": len(final)}
 
 
 def as_intended(row: dict) -> bool:

@@ -66,13 +66,34 @@ def test_a_node_not_marked_respawn_still_ends_the_run():
     assert w.respawns == [] and w.verdict() == ("failed", "mapper-3", -9)
 
 
-def test_the_launch_files_respawn_the_stateless_nodes_only():
-    """docs/faults.md's decisions: the tag detector and the navigator are respawned; every
-    other node of the stack ends the run when it dies."""
+def test_a_node_that_resumes_says_so_when_restarted():
+    launch = tools_launch()
+    launch.TERMINAL = out = io.StringIO()
+    w = launch.Watcher("evaluator", "run")
+    w.watch_respawns(["mapper", "tag_tracker"], lambda name: Proc())
+    w.process_died("mapper-2", -9)
+    w.process_died("tag_tracker-7", -9)
+    assert w.verdict() is None
+    assert out.getvalue().splitlines() == [
+        "[run] node mapper exited with status -9: restarting it (restart 1 of at most 3; "
+        "it resumes from the map it saved)",
+        "[run] node tag_tracker exited with status -9: restarting it (restart 1 of at most 3; "
+        "it resumes from the tags it saved)"]
+
+
+def test_the_launch_files_respawn_the_nodes_that_can_resume_only():
+    """docs/faults.md's decisions: the tag detector and the navigator (no state worth keeping),
+    the mapper and the tag tracker (they resume from the files they save as they go, under the
+    launch's resume_key) are respawned; every other node of the stack ends the run when it dies."""
     import xml.etree.ElementTree as ET
-    respawned = {}
+    respawned, keyed = {}, set()
     for path in sorted((TOP / "launch").glob("*.launch")):
         for node in ET.parse(path).getroot().iter("node"):
             if node.get("respawn") == "true":
                 respawned[node.get("name")] = float(node.get("respawn_delay", "0"))
-    assert respawned == {"tag_detector": 1.0, "navigator": 1.0}
+                if any(p.get("name") == "resume_key" and p.get("value") == "$(anon run)" for p in node.iter("param")):
+                    keyed.add(node.get("name"))
+    assert respawned == {"tag_detector": 1.0, "navigator": 1.0, "mapper": 1.0, "tag_tracker": 1.0}
+    assert keyed == {"mapper", "tag_tracker"}      # a restart finds its own launch's files only
+    launch = tools_launch()
+    assert set(launch.RESUMES) == keyed

@@ -138,7 +138,7 @@ def spy_on_replace(monkeypatch, on_replace):
     def replace(src, dst, *args, **kwargs):
         on_replace(str(src), str(dst))
         return real(src, dst, *args, **kwargs)
-    monkeypatch.setattr(report_module.os, "replace", replace)
+    monkeypatch.setattr(os, "replace", replace)          # files.write_atomic's
 
 
 def test_write_report_writes_report_json_last_and_whole(tmp_path, monkeypatch):

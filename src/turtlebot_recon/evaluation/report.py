@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
+from ..files import write_atomic
 from ..mapping.map_io import FREE_THRESH, OCCUPIED_THRESH
 
 # DESIGN §6 keys of report.json, in order: key -> (what report.md calls it, unit shown there).
@@ -114,24 +114,6 @@ def write_report(out_dir: str | Path, report: dict) -> tuple:
     md_path.write_text(markdown(report))
     write_atomic(json_path, text)
     return json_path, md_path
-
-
-def write_atomic(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same directory, flushed to
-    disk, then renamed over ``path`` (os.replace): a reader sees no file or the whole of it,
-    never a part. On failure the temporary file is removed and ``path`` is left as it was."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")   # same file system: the rename is atomic
-    try:
-        with open(tmp, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
 
 
 def _figure(width_px: int, height_px: int):

@@ -39,6 +39,12 @@ class MapperSettings:
     publish_rate_hz: float = 1.0         # /map and /visit_map
     tf_timeout_s: float = 0.2            # wait this long for the scan's transform
     map_file: str = ""                   # base path of the PGM/YAML pair ('' = ~/.ros/map)
+    # The resume file (map_file + ".resume.npz", mapping/resume.py): the grid saved every
+    # autosave_period_s of sim time, so that a mapper restarted mid-run (respawn) goes on from
+    # it; 0 = never. resume_key names the launch (the launch files set $(anon run)): a resume
+    # file written under another key is an earlier run's and is not taken.
+    autosave_period_s: float = 10.0      # s (sim)
+    resume_key: str = ""
     initial_map: str = ""                # a saved map (map_server YAML) to start from, in map_frame
                                          # ('' = none): a tag search on a map made before
     save_on_shutdown: bool = True
@@ -57,6 +63,7 @@ class MapperSettings:
 
     def validate(self, src: str) -> None:
         positive(src, self, "publish_rate_hz", "tf_timeout_s", "rerender_shift_m", "rerender_shift_rad")
+        require(self.autosave_period_s >= 0, src, "autosave_period_s", "must be >= 0 (0 = never)")
         require(self.map_frame != self.base_frame, src, "map_frame", "must differ from base_frame")
 
 
@@ -82,11 +89,19 @@ def body_disc(robot) -> tuple:
 
 class Mapper:
     def __init__(self, settings: MapperSettings, robot_radius_m: float,
-                 body_disc: tuple | None = None, prior: tuple | None = None):
+                 body_disc: tuple | None = None, prior: tuple | None = None, resume: tuple | None = None):
         """``prior``: (occupancy int8 -1/0..100, resolution m, (origin x, y)) of a saved map the
-        grid starts from (``load_map``'s tuple), at the grid's resolution; scans then update it."""
+        grid starts from (``load_map``'s tuple), at the grid's resolution; scans then update it.
+        ``resume``: (log-odds float32, NaN unknown; resolution m; (origin x, y)) of the resume
+        file a mapper of this run saved before it died (``resume.load_resume``): the grid starts
+        as that mapper left it (``prior`` is then ignored: the resumed grid holds it)."""
         self.settings = settings
-        self.prior = None if prior is None else self._prior_grid(settings.grid, *prior)
+        if resume is not None:
+            logodds, resolution, origin = resume
+            self.prior = (self._covering(settings.grid, np.shape(logodds), resolution, origin, "resumed map"),
+                          np.asarray(logodds, np.float32))
+        else:
+            self.prior = None if prior is None else self._prior_grid(settings.grid, *prior)
         self.robot_radius_m = robot_radius_m     # the bumpers' circle
         # (centre ahead of base_footprint m, radius m): a disc inside the body; default the
         # round body of robot_radius_m
@@ -234,20 +249,31 @@ class Mapper:
         return grid, n
 
     @staticmethod
+    def _covering(g: GridSettings, shape, resolution: float, origin, what: str) -> GridSettings:
+        """Grid settings covering a saved grid of ``shape`` (rows, cols) cells at ``origin``."""
+        if len(shape) != 2 or 0 in shape:
+            raise ValueError(f"{what}: need a non-empty 2-D grid, got shape {tuple(shape)}")
+        if not math.isclose(resolution, g.resolution, rel_tol=1e-6):
+            raise ValueError(f"{what}: resolution {resolution:g} m differs from the mapper's "
+                             f"grid.resolution {g.resolution:g} m")
+        rows, cols = shape
+        return dataclasses.replace(g, origin_x=float(origin[0]), origin_y=float(origin[1]),
+                                   width_m=cols * resolution, height_m=rows * resolution)
+
+    @staticmethod
     def _prior_grid(g: GridSettings, occupancy, resolution: float, origin) -> tuple:
         """(grid settings covering the saved map, its cells' log-odds)."""
         occ = np.asarray(occupancy)
-        if occ.ndim != 2 or occ.size == 0:
-            raise ValueError(f"initial map: need a non-empty 2-D grid, got shape {occ.shape}")
-        if not math.isclose(resolution, g.resolution, rel_tol=1e-6):
-            raise ValueError(f"initial map: resolution {resolution:g} m differs from the mapper's "
-                             f"grid.resolution {g.resolution:g} m")
+        settings = Mapper._covering(g, occ.shape, resolution, origin, "initial map")
         p = np.clip(occ.astype(np.float32) / 100.0, 1e-3, 1.0 - 1e-3)
         logodds = np.where(occ < 0, np.nan, np.log(p / (1.0 - p))).astype(np.float32)
-        rows, cols = occ.shape
-        settings = dataclasses.replace(g, origin_x=float(origin[0]), origin_y=float(origin[1]),
-                                       width_m=cols * resolution, height_m=rows * resolution)
         return settings, logodds
+
+    def resume_state(self) -> tuple:
+        """(log-odds float32 NaN unknown, resolution m, (origin x, y)) of the live grid: what
+        ``resume`` takes back (a copy; hold the node's lock while the scans go in)."""
+        g = self.grid
+        return g.logodds(), g.resolution, (g.origin_x, g.origin_y)
 
     def _new_grid(self):
         """An empty grid, or one holding the prior map."""

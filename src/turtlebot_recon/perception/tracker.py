@@ -84,11 +84,17 @@ class TrackerNodeSettings:
     tags_file: str = ""              # base path of tags.yaml / tags.csv ('' = $ROS_HOME/tags)
     save_on_shutdown: bool = True
     slam_landmarks: bool = False     # a tag in SLAM's graph (/slam/landmarks) takes the graph's x, y
+    # tags.yaml/csv written (atomically) when a tag is confirmed or its estimate changes, at most
+    # every autosave_min_period_s (sim); a tracker restarted mid-run (respawn) whose launch wrote
+    # them (resume_key, $(anon run) from the launch files) goes on from them (docs/faults.md)
+    autosave_min_period_s: float = 2.0   # s (sim)
+    resume_key: str = ""
     tracker: TrackerSettings = TrackerSettings()
 
     def validate(self, source: str) -> None:
         require(self.tf_timeout_s >= 0, source, "tf_timeout_s", "must be >= 0")
         require(self.publish_rate_hz > 0, source, "publish_rate_hz", "must be > 0")
+        require(self.autosave_min_period_s >= 0, source, "autosave_min_period_s", "must be >= 0")
 
 
 @dataclass(frozen=True)
@@ -259,6 +265,17 @@ class TagTracker:
                 out[k] = g
         return sorted(out.values(), key=lambda g: (g.family, g.id))
 
+    def restore(self, tracks: Sequence[TagTrack]) -> None:
+        """Take back ``tracks`` (a tags.yaml this run's tracker saved before it died,
+        ``load_tags_yaml``): each goes on as it was, its estimate, covariance, counts and state;
+        a tag already tracked here keeps this tracker's estimate."""
+        for t in tracks:
+            key = (t.marker_set, int(t.id))
+            if key not in self._tags:
+                self._tags[key] = _Tag(t.family, int(t.id), float(t.size_m), np.array(t.mean, float),
+                                       np.array(t.covariance, float), t.first_seen_s, t.last_seen_s,
+                                       t.sightings, t.rejected, t.state)
+
     def tags(self, confirmed_only: bool = True) -> List[TagTrack]:
         """The tags' records, sorted by (family, id)."""
         records = [t.record() for t in self._tags.values()
@@ -338,10 +355,11 @@ def _check_ids(entries: Sequence[Tuple[str, int, float]], where: Sequence[str]) 
         seen[key] = here
 
 
-def to_standalone_tags_yaml(tracks: Sequence[TagTrack]) -> str:
+def to_standalone_tags_yaml(tracks: Sequence[TagTrack], resume_key: str = "") -> str:
     """The tracks as apriltag_ros's ``standalone_tags`` list plus our keys (module docstring).
     ``name`` is apriltag_ros's default ``tag_<id>``, or ``<marker set>_tag_<id>`` for an id
-    that two marker sets share."""
+    that two marker sets share. ``resume_key`` (the tracker's launch; '' = none) is written as
+    a top-level key for ``resumable_tracks``."""
     _check_ids([(t.family, t.id, t.size_m) for t in tracks],
                [f"track {t.family}/{t.id}" for t in tracks])
     ids = [t.id for t in tracks]
@@ -361,8 +379,8 @@ def to_standalone_tags_yaml(tracks: Sequence[TagTrack]) -> str:
             "# x y z (m), yaw (rad, outward normal), qw qx qy qz (upright marker), family,\n"
             "# covariance over (x, y, z, yaw) (m², m·rad, rad²), sightings, rejected,\n"
             "# first_seen_s / last_seen_s (stamps, s), state.\n")
-    return head + yaml.safe_dump({"standalone_tags": entries}, sort_keys=False,
-                                 default_flow_style=None)
+    data = {"standalone_tags": entries, **({"resume_key": resume_key} if resume_key else {})}
+    return head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
 def _number(entry: dict, key: str, where: str) -> float:
@@ -433,6 +451,18 @@ def load_tags_yaml(text: str) -> List[TagTrack]:
     tracks = [_track(entry, here) for entry, here in zip(data["standalone_tags"], where)]
     _check_ids([(t.family, t.id, t.size_m) for t in tracks], where)
     return tracks
+
+
+def resumable_tracks(text: str, resume_key: str):
+    """The tracks of a tags.yaml written under ``resume_key`` (a tracker of the same launch that
+    died), or None when it is another run's (or has no key). ValueError as ``load_tags_yaml``."""
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ValueError(f"tags file: not valid YAML: {exc}") from None
+    if not resume_key or not isinstance(data, dict) or data.get("resume_key") != resume_key:
+        return None
+    return load_tags_yaml(text)
 
 
 def to_csv(tracks: Sequence[TagTrack]) -> str:
