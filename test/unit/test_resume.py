@@ -112,3 +112,27 @@ def test_decided_cells_are_those_a_saved_map_keeps():
     # p = 0.2 (20 %: free), 0.5 (unknown in a PGM), 0.7 (70 %: occupied), NaN (unknown)
     logodds = np.log(np.array([[0.2 / 0.8, 1.0, 0.7 / 0.3, np.nan]], np.float32))
     assert decided(logodds).tolist() == [[True, False, True, False]]
+
+
+def test_a_run_whose_mapper_died_for_good_keeps_its_last_autosave_as_the_map(tmp_path):
+    """Issue 32 item 3: the run directory always has the map. A mapper that dies a fourth time
+    (or with the run) writes no map.pgm: tools/launch writes its last autosave as the map, the
+    mapper's own way (same thresholds), and leaves a newer map or an earlier run's file alone."""
+    from test_launch_respawn import tools_launch
+    from turtlebot_recon.mapping.map_io import load_map
+    launch = tools_launch()
+    dead = mapped()
+    logodds, res, origin = dead.resume_state()
+    resume = save_resume(resume_path(tmp_path / "map"), logodds, res, origin, key="run_1", stamp_s=42.0)
+    assert launch.keep_the_map(str(tmp_path), since=os.path.getmtime(resume) + 10) == ""    # an earlier run's
+    assert not (tmp_path / "map.yaml").exists()
+    line = launch.keep_the_map(str(tmp_path), since=os.path.getmtime(resume) - 1)
+    assert line.startswith("the map is the mapper's last autosave")
+    occ, res2, origin2 = load_map(tmp_path / "map.yaml")
+    assert res2 == res and np.allclose(origin2, origin)
+    assert np.array_equal(occ >= 0, decided(logodds))             # every settled cell, no other
+    assert (occ[decided(logodds) & (logodds > 0)] == 100).all()   # the walls are walls
+    assert launch.keep_the_map(str(tmp_path), since=0.0) == ""     # the map is newer: left alone
+    (tmp_path / "map.resume.npz").write_bytes(b"not a zip")
+    os.utime(tmp_path / "map.yaml", (0, 0))
+    assert "could not be written as the map" in launch.keep_the_map(str(tmp_path), since=0.0)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import write_atomic
-from .map_io import FREE_THRESH, OCCUPIED_THRESH
+from .map_io import FREE_THRESH, OCCUPIED_THRESH, save_map
 
 RESUME_SUFFIX = ".resume.npz"
 
@@ -37,16 +37,16 @@ def save_resume(path: str | Path, logodds: np.ndarray, resolution: float, origin
     return write_atomic(path, buf.getvalue())
 
 
-def load_resume(path: str | Path, key: str):
+def load_resume(path: str | Path, key: str | None):
     """(log-odds, resolution m, (origin x, y), saved at sim s) of the resume file at ``path``
-    when it was written under ``key``; None when there is none or it is another run's.
-    ValueError naming the file when it cannot be read (a file that is not ours)."""
+    when it was written under ``key`` (None: whichever run's); None when there is none or it is
+    another run's. ValueError naming the file when it cannot be read (a file that is not ours)."""
     path = Path(path)
     if not path.is_file():
         return None
     try:
         with np.load(path, allow_pickle=False) as f:
-            if str(f["key"]) != key:
+            if key is not None and str(f["key"]) != key:
                 return None
             logodds, resolution, origin = f["logodds"], float(f["resolution"]), f["origin"]
             stamp_s = float(f["stamp_s"])
@@ -56,6 +56,22 @@ def load_resume(path: str | Path, key: str):
         raise ValueError(f"{path}: not a mapper resume file: log-odds {logodds.dtype} {logodds.shape}, "
                          f"origin {origin.shape}")
     return logodds, resolution, (float(origin[0]), float(origin[1])), stamp_s
+
+
+def map_from_resume(resume_file: str | Path, base: str | Path) -> Path | None:
+    """map_server files ``base``.pgm/.yaml from the resume file (the last grid a mapper saved,
+    whichever run's: the caller knows the file is its run's), where a mapper that died for good
+    wrote no map; None when there is no resume file. The map saver's thresholds, as the
+    mapper's own save. ValueError for a file that is not a resume file, OSError when the map
+    cannot be written."""
+    got = load_resume(resume_file, None)
+    if got is None:
+        return None
+    logodds, resolution, origin, _ = got
+    with np.errstate(invalid="ignore", over="ignore"):
+        percent = np.rint(100.0 / (1.0 + np.exp(-logodds.astype(np.float64))))
+    occupancy = np.where(np.isnan(logodds), -1, percent).astype(np.int8)
+    return save_map(base, occupancy, resolution, origin)
 
 
 def known_cells(known: np.ndarray, resolution: float, origin_xy) -> set:
