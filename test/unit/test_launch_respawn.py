@@ -97,3 +97,25 @@ def test_the_launch_files_respawn_the_nodes_that_can_resume_only():
     assert keyed == {"mapper", "tag_tracker"}      # a restart finds its own launch's files only
     launch = tools_launch()
     assert set(launch.RESUMES) == keyed
+
+
+def test_the_last_error_is_the_nodes_own_not_a_traceback_rospy_logs_after_it(tmp_path):
+    """A fresh machine's full-disk run: the evaluator said why (rospy.logerr, logger rosout), then
+    rospy's connection teardown logged a traceback (logger rospy.internal) at shutdown; the
+    line tools/launch ends the run with must be the node's reason."""
+    launch = tools_launch()
+    (tmp_path / "evaluator-7.log").write_text(
+        "[rosout][INFO] 2026-12-07 04:10:01,000: evaluator: finishing at t=20.0 s sim\n"
+        "[rosout][ERROR] 2026-12-07 04:10:03,732: evaluator: cannot write the run output to /r: "
+        "[Errno 28] No space left on device\n"
+        "[rospy.internal][ERROR] 2026-12-07 04:10:03,900: Traceback (most recent call last):\n"
+        "  File \"/usr/lib/python3/dist-packages/rospy/impl/tcpros_base.py\", line 750, in close\n"
+        "OSError: [Errno 9] Bad file descriptor\n"
+        "[rosout][ERROR] 2026-12-07 04:10:04,000: Traceback (most recent call last):\n"   # registration's
+        "  File \"/usr/lib/python3/dist-packages/rospy/impl/registration.py\", line 154, in notify_added\n")
+    assert launch.last_error("evaluator-7", str(tmp_path)) == \
+        "evaluator: cannot write the run output to /r: [Errno 28] No space left on device"
+    # a node that said nothing itself: rospy's own error is still better than nothing
+    (tmp_path / "mapper-4.log").write_text(
+        "[rospy.internal][ERROR] 2026-12-07 04:10:03,900: Unable to report rosout\n")
+    assert launch.last_error("mapper-4", str(tmp_path)) == "Unable to report rosout"
