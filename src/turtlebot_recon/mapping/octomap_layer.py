@@ -149,11 +149,19 @@ class OctomapLayer:
         if not own.any():
             return layer
         lowest = self._lowest_voxel(own, resolution, origin)
-        dist, (near_r, near_c) = ndimage.distance_transform_edt(~own, return_indices=True)
-        r, c = np.nonzero((dist * resolution <= s.hidden_extent_m) & (occupancy >= 0) & ~wall & ~solid)
+        # the distance field in the window of the own obstacles grown by hidden_extent_m: every
+        # cell within that distance of one is inside it, and the field there is the whole grid's
+        pad = int(np.ceil(s.hidden_extent_m / resolution)) + 1
+        on_r, on_c = np.nonzero(own)
+        win = (slice(max(on_r.min() - pad, 0), min(on_r.max() + pad + 1, rows)),
+               slice(max(on_c.min() - pad, 0), min(on_c.max() + pad + 1, cols)))
+        dist, (near_r, near_c) = ndimage.distance_transform_edt(~own[win], return_indices=True)
+        r, c = np.nonzero((dist * resolution <= s.hidden_extent_m) & (occupancy[win] >= 0) & ~wall[win] & ~solid[win])
         if r.size == 0:
             return layer
-        z_from = lowest[near_r[r, c], near_c[r, c]]       # the nearest own obstacle's lowest voxel
+        r0, c0 = win[0].start, win[1].start
+        z_from = lowest[near_r[r, c] + r0, near_c[r, c] + c0]    # the nearest own obstacle's lowest voxel
+        r, c = r + r0, c + c0
         step = self.tree.resolution
         levels = (np.arange(int(s.robot_height_m / step) + 1) + 0.5) * step
         levels = levels[(levels > s.floor_band_m) & (levels <= s.robot_height_m)]

@@ -68,9 +68,7 @@ def map_from_resume(resume_file: str | Path, base: str | Path) -> Path | None:
     if got is None:
         return None
     logodds, resolution, origin, _ = got
-    with np.errstate(invalid="ignore", over="ignore"):
-        percent = np.rint(100.0 / (1.0 + np.exp(-logodds.astype(np.float64))))
-    occupancy = np.where(np.isnan(logodds), -1, percent).astype(np.int8)
+    occupancy = np.where(np.isnan(logodds), -1, np.rint(percent(logodds))).astype(np.int8)
     return save_map(base, occupancy, resolution, origin)
 
 
@@ -83,9 +81,15 @@ def known_cells(known: np.ndarray, resolution: float, origin_xy) -> set:
     return set(zip((cols + ox).tolist(), (rows + oy).tolist()))
 
 
+def percent(logodds: np.ndarray) -> np.ndarray:
+    """Occupancy probability in percent (0-100, float) from log-odds; NaN (unknown) stays NaN."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        return 100.0 / (1.0 + np.exp(-np.asarray(logodds, np.float64)))
+
+
 def decided(logodds: np.ndarray) -> np.ndarray:
     """The cells a saved map_server map keeps as free or occupied (map_saver's thresholds; the
     ones in between it writes as unknown), from log-odds (NaN unknown)."""
+    p = percent(logodds)
     with np.errstate(invalid="ignore"):
-        percent = 100.0 / (1.0 + np.exp(-np.asarray(logodds, float)))
-        return (percent <= FREE_THRESH) | (percent >= OCCUPIED_THRESH)
+        return (p <= FREE_THRESH) | (p >= OCCUPIED_THRESH)
