@@ -37,7 +37,7 @@ class MapperSettings:
     robot: str = ""                  # for the bumper geometry (config/robots/); no default: the launch
                                          # files set it (their top-level files hold its one default)
     publish_rate_hz: float = 1.0         # /map and /visit_map
-    tf_timeout_s: float = 0.2            # wait this long for the scan's transform
+    tf_timeout_s: float = 1.0            # wait this long for the scan's transform
     map_file: str = ""                   # base path of the PGM/YAML pair ('' = ~/.ros/map)
     # The resume file (map_file + ".resume.npz", mapping/resume.py): the grid saved every
     # autosave_period_s of sim time, so that a mapper restarted mid-run (respawn) goes on from

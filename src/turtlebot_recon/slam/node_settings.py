@@ -19,7 +19,7 @@ class SlamNodeSettings:
                                          # files set it (their top-level files hold its one default)
     tf_rate_hz: float = 20.0              # map -> odom, from its own timer
     transform_tolerance_s: float = 0.1    # map -> odom stamped this far ahead (slam_gmapping's)
-    tf_timeout_s: float = 0.1             # wait this long for odometry at a scan's stamp
+    tf_timeout_s: float = 1.0             # wait this long for odometry at a scan's stamp
     output_dir: str = ""                  # ~save writes here ('' = $ROS_HOME/slam)
     tag_landmarks: bool = True            # mapping: tags seen (tags/detections) are landmarks in the
                                           # graph, published on slam/landmarks; false: ignored
