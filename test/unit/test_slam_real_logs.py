@@ -85,9 +85,27 @@ def test_a_turn_in_place_seen_from_off_the_turning_centre_is_matched():
     lever = (0.15, 0.0, 0.0)
     for k in range(12):
         base = (3.0, 3.5, 0.1 * k)
-        slam.add_scan(0.2 * k, scan_points_from(compose(base, lever)), base)   # odometry: the base
+        slam.add_scan(0.2 * k, scan_points_from(compose(base, lever)), base, mount_known=False)  # odometry: the base
     assert slam.counts["keyframes"] >= 4
     assert slam.counts["match_inconsistent"] == 0 and slam.counts["matched"] == slam.counts["keyframes"] - 1
+
+
+def test_the_lever_term_enters_only_where_the_laser_mounting_is_unknown():
+    """A live robot's scans come in the base frame through TF (a bag's through the robot's
+    YAML): a turn in place does not move them, and the lever term would only widen the gate
+    for a wrong match (the house drive, 2026-12-07: a match 8.8 cm off odometry along a
+    corridor passed, and the trajectory kept 6 cm of error to the end). A log whose laser pose
+    is its odometry's gets it."""
+    turn = np.array([0.0, 0.0, 0.8])
+    chord = (SlamSettings().odom_turn_std_m_per_rad * 0.8) ** 2
+    covs = {}
+    for known in (True, False):
+        slam = Slam(SlamSettings(odom_timing_std_s=0.0), 0.4)
+        assert slam.add_scan(0.0, scan_points_from((1.0, 1.5, 0.0)), (1.0, 1.5, 0.0), mount_known=known)
+        covs[known], _ = slam._odometry(0.2, turn)
+    assert covs[False][0, 0] - covs[True][0, 0] == pytest.approx(chord)
+    assert covs[False][1, 1] - covs[True][1, 1] == pytest.approx(chord)
+    assert covs[True][0, 0] < 1e-4                      # the floor and the slip only: (1 cm)^2
 
 
 def test_odometry_covariance_is_positive_definite_when_turning_while_travelling():
@@ -251,7 +269,7 @@ def drive_with_late_odometry(settings, lag_std_s=0.06, seed=3):
     slam = Slam(settings, 0.4)
     for k in range(30):
         t = 0.2 * k
-        slam.add_scan(t, scan_points_from(pose(t)), pose(t + rng.normal(0.0, lag_std_s)))
+        slam.add_scan(t, scan_points_from(pose(t)), pose(t + rng.normal(0.0, lag_std_s)), mount_known=False)
     return slam
 
 

@@ -192,7 +192,9 @@ def run_log(reader, output_dir, settings: SlamSettings = SlamSettings(), wheel_s
 
     def use(rec: LaserRecord, pose, offset) -> None:
         odometry_rows.append((rec.stamp_s, *pose))
-        if slam.add_scan(rec.stamp_s, _base_points(rec, offset), pose):
+        # a log whose laser pose is its odometry pose does not say where the laser sits
+        mount_known = rec.laser_pose is None or any(abs(v) > 1e-9 for v in offset)
+        if slam.add_scan(rec.stamp_s, _base_points(rec, offset), pose, mount_known):
             scans[id(slam.keyframes[-1])] = (rec, offset, len(odometry_rows) - 1)
 
     def reset(why: str) -> None:

@@ -87,9 +87,9 @@ class SlamSettings:
     odom_slip_std_sqrt_m: float = 0.03    # m / sqrt(m)
     odom_floor_std_m: float = 0.005       # m, added to x and y of every step
     odom_floor_std_rad: float = 0.005     # rad, added to the heading of every step
-    odom_turn_std_m_per_rad: float = 0.15  # m per rad turned, added to x and y: the scan's frame
-                                          # may sit off the turning centre (a log whose laser pose
-                                          # is its odometry pose: 0.1-0.16 m measured on two)
+    odom_turn_std_m_per_rad: float = 0.15  # m per rad turned, added to x and y where the laser's
+                                          # mounting is unknown (a log whose laser pose is its
+                                          # odometry pose: 0.1-0.16 m measured on two; add_scan)
     odom_timing_std_s: float = 0.05       # s, std of the time between a scan and the odometry pose
                                           # given for it (a driver's latency, unsynchronised clocks):
                                           # each end of a step is off by its velocity times this
@@ -295,6 +295,7 @@ class Slam:
         self.last_odom = None                   # (stamp, pose) of the last scan seen
         self.odom_watch = OdometryWatch()
         self._jump_var: Optional[np.ndarray] = None   # variance added to the step across a jump
+        self._lever = False                     # the scan's mounting unknown (add_scan's mount_known)
         self.counts = dict(keyframes=0, matched=0, match_rejected=0, match_inconsistent=0, degenerate=0, loop_tried=0,
                            loop_accepted=0, loop_inconsistent=0, odom_jumps=0, resets=0, imu_fused=0,
                            scans_no_return=0, refused=0, keyframes_dropped=0)
@@ -319,10 +320,14 @@ class Slam:
         if math.isfinite(yaw_rate_radps):
             self.gyro.append((float(stamp_s), float(yaw_rate_radps)))
 
-    def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose) -> bool:
+    def add_scan(self, stamp_s: float, points_base: np.ndarray, odom_pose, mount_known: bool = True) -> bool:
         """A scan (points in the base frame, (n, 2)) with the odometry pose at its stamp.
         Returns whether it became a keyframe (the graph was updated then). A scan without a
-        point (no return on any beam) is counted and left out."""
+        point (no return on any beam) is counted and left out. ``mount_known``: the points are
+        in the base frame exactly (the laser's mounting from TF or the robot's YAML); False for
+        a log that gives its laser's pose as the odometry's, where a turn moves the scan frame
+        by an unknown lever (``odom_turn_std_m_per_rad`` enters the odometry steps then)."""
+        self._lever = not mount_known
         odom = np.asarray(odom_pose, float)
         if not np.isfinite(odom).all():
             self.events.append(f"odometry pose not finite {odom.tolist()}: scan at {stamp_s:.2f} s skipped")
@@ -470,7 +475,7 @@ class Slam:
     def _odometry(self, stamp_s: float, delta: np.ndarray) -> tuple:
         """The wheels' covariance of the odometry step ``delta`` to ``stamp_s`` (the graph's
         odometry factor) and the gyro over it (a ``GyroStep``, or None)."""
-        cov = odometry_covariance(delta, self.separation, self.s)
+        cov = odometry_covariance(delta, self.separation, self.s, lever=self._lever)
         if self.s.odom_timing_std_s > 0:
             cov = cov + timing_covariance(delta, self.keyframes[-1].velocity, self.odom_watch.velocity(),
                                           self.s.odom_timing_std_s)
