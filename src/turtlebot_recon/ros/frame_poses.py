@@ -12,6 +12,19 @@ from .log import StartGrace
 TF_ERRORS = (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException)
 
 
+def lookup_at(tf: tf2_ros.Buffer, target: str, frame: str, stamp: rospy.Time, timeout_s: float):
+    """target <- ``frame`` at ``stamp`` (a TransformStamped), waiting up to ``timeout_s`` only
+    while TF has not yet reached the stamp (it lags the sensor data). A stamp older than what TF
+    holds, or a frame TF does not have, raises at once: no wait brings those. Raises what
+    ``lookup_transform`` raises."""
+    try:
+        return tf.lookup_transform(target, frame, stamp)
+    except tf2_ros.ExtrapolationException:
+        if stamp < tf.lookup_transform(target, frame, rospy.Time(0)).header.stamp:
+            raise
+    return tf.lookup_transform(target, frame, stamp, rospy.Duration(timeout_s))
+
+
 class FramePoses:
     """Frames (stamp, frame id) queued as they come (``add``, from a subscriber); ``poses``
     places them in a target frame at their stamps: (x, y, yaw of the frame's z axis: a camera's
