@@ -430,6 +430,23 @@ def test_backs_out_of_a_dead_end_it_cannot_turn_in():
     assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
 
 
+def test_a_long_backward_run_is_steered_onto_its_end():
+    # A 2.6 m dead end 0.45 m wide (7 cm to spare each side of the box) off a room; the robot
+    # stands at its far end facing it, 0.04 rad off its axis (under BACK_ALIGN_RAD: no turn
+    # first). Backed straight, that heading would carry it 10 cm sideways into a wall (a run
+    # that long is an OMPL plan's); steered onto the run's end, it backs out and reaches the goal.
+    occ = np.full((60, 100), 100, np.int8)
+    occ[2:58, 2:38] = 0                       # the room: x in [0.1, 1.9), y in [0.1, 2.9)
+    occ[26:35, 38:90] = 0                     # the dead end: y in [1.30, 1.75), x in [1.9, 4.5)
+    nav = Navigation(PURSUIT, WAFFLE)
+    nav.update_map(occ, RES, (0.0, 0.0))
+    nav.set_goal(1.0, 1.0)
+    poses, commands = drive_robot(nav, WAFFLE, occ, (4.2, 1.525, 0.04), 120.0)
+    assert nav.status == "succeeded", nav.reason
+    assert (poses[:, 0] < 1.9).any() and min(v for _, (v, _) in commands) < 0.0
+    assert body_clearance(WAFFLE, occ, poses).min() >= 0.005
+
+
 def test_escape_arcs_get_a_box_off_a_wall_the_lattice_cannot_leave():
     # 0.19 m from the wall (its side 0.037 m off it): too near for the partial turns that
     # square it up at 0.225 m, and the wall runs the room's length.

@@ -122,8 +122,8 @@ def run_ends(path: LatticePath) -> np.ndarray:
     return np.flatnonzero(forward & followed)
 
 
-BACK_ALIGN_RAD = 0.05  # a backward run starts once the heading is this close to the run's: it
-                       # drifts 1.5 cm sideways over 0.3 m
+BACK_ALIGN_RAD = 0.05  # a backward run starts once the heading is this close to the run's (and
+                       # is steered onto its end from there)
 ANCHOR_AHEAD_M = 0.25   # a replan continues the plan from this far ahead of the robot (about
                         # the follower's shortest look-ahead): a first leg that long points
                         # along the plan to within a few degrees
@@ -560,7 +560,12 @@ class Navigation:
             self.backing, self._need_plan, self._reversing = None, True, False
             return 0.0, 0.0
         self._reversing = True
-        return self._straight(inp, pose, to_go, -1)
+        v, _ = self._straight(inp, pose, to_go, -1)
+        # steered onto the run's end as a pure pursuit of it, seen from the rear (err is the
+        # angle between the robot's back and the end): a run of a metre or more, an OMPL
+        # plan's, would otherwise drift BACK_ALIGN_RAD x its length sideways
+        d = math.hypot(bx - x, by - y)
+        return v, (abs(v) * 2.0 * math.sin(err) / d if d > 0.05 else 0.0)
 
     def _escape(self, pose: tuple) -> tuple:
         """One period of an escape arc: (v, w) along it at reverse_speed_mps while the body keeps
