@@ -61,7 +61,7 @@ help:
 	@echo "                 JOBS=N ROBOT= ROBOTS=maze=...,cluttered=a+b BUDGET=sim s for all | BUDGETS=house=600,..."
 	@echo "                 RESUME=1 reuses finished runs, REPORT=1 runs nothing: table and explore.json from the runs on disk,"
 	@echo "                 DRY_RUN=1 prints the plan and its estimated wall time, SWEEP=name writes output/bench/name/ and"
-	@echo "                 name.json instead, LAUNCH_ARGS='controller:=dwa slam:=true' more explore_sim.launch arguments"
+	@echo "                 name.json instead, LAUNCH_ARGS='controller:=dwa slam:=false' more explore_sim.launch arguments"
 	@echo "                 for every run; TABLE=1 runs nothing: docs/benchmarks.md's table from the newest committed sweep)"
 
 $(APT_STAMP): tools/apt-packages.txt

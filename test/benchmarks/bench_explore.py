@@ -504,7 +504,7 @@ def markdown_table(data: dict, source: str) -> str:
     keys = ("default_time99_ratio_vs_oracle_max", "default_time99_ratio_vs_oracle_mean",
             "default_time99_ratio_vs_best_baseline", "default_standing_ratio_vs_oracle_max",
             "default_min_coverage", "default_collisions", "heldout_default_min_coverage",
-            "heldout_default_collisions", "full_stack_rtf_lidar", "wall_s")
+            "heldout_default_collisions", "full_stack_rtf_lidar", "full_stack_rtf_slam", "wall_s")
     lines += ["", "; ".join(f"`{k}` {num(data.get(k), '.3g')}" for k in keys if k in data)
               + (f"; baselines from `{data['baseline_sweep']}` ({data.get('baseline_commit')})"
                  if data.get("baseline_sweep") else "")]
@@ -551,7 +551,7 @@ def main(argv=None):
                    help="map: lidar coverage (the exploration figures) | tags: then the tag search "
                         "with the camera (make bench-tags)")
     p.add_argument("--launch-args", default="", help="more explore_sim.launch arguments for every run, e.g. "
-                   "'slam:=true odom_slip:=0.01'")
+                   "'slam:=false' (exact odometry, no SLAM)")
     p.add_argument("--resume", action="store_true", help="reuse runs already finished ok")
     p.add_argument("--dry-run", action="store_true",
                    help="print the plan, budgets, wall limits and the estimated wall time; run nothing")

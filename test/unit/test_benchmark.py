@@ -89,6 +89,20 @@ def sweep():
             run("density", "maze", t95=80.0, t99=None, dist=30.0)]
 
 
+def test_the_stack_speed_is_keyed_by_whether_slam_ran():
+    # runs whose map is in map (SLAM, the default) give full_stack_rtf_slam, runs in odom (no
+    # SLAM: the report's map_frame odom, or no such key in an older report) full_stack_rtf_lidar
+    runs = sweep()
+    for r, frame in zip(runs, ("map", None, None, "map", None, None)):
+        if frame:
+            r.report["map_frame"] = frame
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert f["full_stack_rtf_slam"] == 10.0 and "full_stack_rtf_lidar" not in f
+    runs[0].report["map_frame"] = "odom"
+    f = bm.figures(bm.aggregate(runs), runs)
+    assert (f["full_stack_rtf_lidar"], f["full_stack_rtf_slam"]) == (9.0, 11.0)
+
+
 def test_figures_headline_and_per_group_keys():
     runs = sweep()
     f = bm.figures(bm.aggregate(runs), runs)

@@ -249,6 +249,7 @@ def test_run_report_from_the_log_coverage_and_map(run):
         "distance_m": 2.0, "collisions": 1,
         "sim_time_s": 10.0, "wall_time_s": 4.0, "rtf": 2.5, "finished_reason": "no frontiers",
         "ate_odometry_m": pytest.approx(0.035355, abs=1e-6),   # no SLAM: the odometry is the estimate
+        "map_frame": "odom",
         "distance_to_99_m": 2.0,          # along the kept points until t = 3 s: 1 + 1
         # from the clock's start (t = 10) to 99 % (t = 13): 0.01 m/s from t = 10 to 11 stands,
         # before any move (no stop)

@@ -227,7 +227,9 @@ def headline(groups: dict, runs: list, worlds: list, default: str = DEFAULT_STRA
 
     default_runs, default_failed_runs; default_min_coverage (min final coverage of the
     default's runs, failed = 0); default_collisions (total over its ok runs);
-    full_stack_rtf_lidar (median RTF of its ok runs); default_time{99,95}_ratio_vs_best_baseline
+    full_stack_rtf_lidar (median RTF of its ok runs with the map in odom: no SLAM) and
+    full_stack_rtf_slam (the same over its runs with SLAM, the map in map; each key only where
+    such runs are); default_time{99,95}_ratio_vs_best_baseline
     (per world: the default's median time to the milestone / the best other strategy's, then the
     worst world) with default_time{99,95}_never_worlds (worlds where the default's median never
     got there); default_distance99_ratio_vs_best_baseline (the same for the distance driven
@@ -244,8 +246,12 @@ def headline(groups: dict, runs: list, worlds: list, default: str = DEFAULT_STRA
     mine = [r for r in runs if r.strategy == default and r.world in chosen]
     out = {"default_runs": len(mine), "default_failed_runs": sum(not r.ok for r in mine),
            "default_min_coverage": min((r.coverage() for r in mine), default=math.nan),
-           "default_collisions": sum(int(r.report.get("collisions") or 0) for r in mine if r.ok),
-           "full_stack_rtf_lidar": median(float(r.report["rtf"]) for r in mine if r.ok and r.report.get("rtf"))}
+           "default_collisions": sum(int(r.report.get("collisions") or 0) for r in mine if r.ok)}
+    for key, slam in (("full_stack_rtf_lidar", False), ("full_stack_rtf_slam", True)):
+        rtf = [float(r.report["rtf"]) for r in mine
+               if r.ok and r.report.get("rtf") and (r.report.get("map_frame") == "map") == slam]
+        if rtf:
+            out[key] = median(rtf)
     for pct in (99, 95):
         out[f"default_time{pct}_ratio_vs_best_baseline"] = worst(
             versus_best_baseline(groups, w, lambda g: g.time_s[pct], default) for w in worlds)

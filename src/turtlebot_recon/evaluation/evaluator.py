@@ -276,6 +276,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
         # extra keys
         "ate_odometry_m": (math.sqrt(float(np.mean(log.ate_odom_sq_m2))) if log.ate_odom_sq_m2
                            else log.ate_m()),       # odometry alone, on the same samples
+        "map_frame": settings.map_frame,            # map with SLAM (or a saved map), odom without
         "distance_to_99_m": None if d99 is None else round(d99, 3),   # along the recorded path
         "time_standing_s": round(standing_s, 2), "stops": stops,     # to 99 % (docstring above)
         "F_cells": coverage.cells, "F_m2": round(coverage.area_m2, 2),
