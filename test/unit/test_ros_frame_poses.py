@@ -9,7 +9,7 @@ import rospy.rostime
 import tf2_ros
 
 from turtlebot_recon.ros import convert
-from turtlebot_recon.ros.frame_poses import lookup_at
+from turtlebot_recon.ros.frame_poses import LOOKUP_ERRORS, lookup_at
 
 
 @pytest.fixture
@@ -56,3 +56,15 @@ def test_a_stamp_tf_never_reaches_is_refused_after_the_timeout(tf):
 def test_what_no_wait_brings_is_refused_at_once(tf, frame, stamp, error):
     out, wall = timed(lambda: lookup_at(tf, "map", frame, rospy.Time(stamp), 5.0))
     assert isinstance(out, error) and wall < 0.5
+
+
+def test_a_clock_jumping_back_during_the_wait_raises_one_of_lookup_errors(tf, monkeypatch):
+    # sim time at 12 s; TF lags the stamp, so lookup_at waits; the clock jumps back to 5 s (a bag
+    # looping): rospy's wait raises, and the nodes catch it as one of LOOKUP_ERRORS
+    monkeypatch.setattr(rospy.rostime, "_rostime_current", rospy.Time(12.0))
+    jump = threading.Timer(0.2, lambda: rospy.rostime._set_rostime(rospy.Time(5.0)))
+    jump.start()
+    with pytest.raises(LOOKUP_ERRORS) as err:
+        lookup_at(tf, "map", "laser", rospy.Time(12.5), 5.0)
+    jump.join()
+    assert isinstance(err.value, rospy.exceptions.ROSTimeMovedBackwardsException)

@@ -10,13 +10,15 @@ from .convert import z_axis_yaw
 from .log import StartGrace
 
 TF_ERRORS = (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException)
+# what lookup_at raises: TF's errors, and rospy's when its wait meets the clock jumping back
+LOOKUP_ERRORS = (tf2_ros.TransformException, rospy.exceptions.ROSTimeMovedBackwardsException)
 
 
 def lookup_at(tf: tf2_ros.Buffer, target: str, frame: str, stamp: rospy.Time, timeout_s: float):
     """target <- ``frame`` at ``stamp`` (a TransformStamped), waiting up to ``timeout_s`` only
     while TF has not yet reached the stamp (it lags the sensor data). A stamp older than what TF
-    holds, or a frame TF does not have, raises at once: no wait brings those. Raises what
-    ``lookup_transform`` raises."""
+    holds, or a frame TF does not have, raises at once: no wait brings those. Raises one of
+    LOOKUP_ERRORS."""
     try:
         return tf.lookup_transform(target, frame, stamp)
     except tf2_ros.ExtrapolationException:
