@@ -3,11 +3,13 @@
 // releases the GIL and serialises calls on one matcher (its buffers are reused).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <cmath>
 #include <cstddef>
 #include <iomanip>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -63,14 +65,19 @@ ts::Pose2 guess_pose(const py::object& value) {
 }
 
 ts::MatchResult py_match(LockedMatcher& self, const DoubleArray& points,
-                         const DoubleArray& reference, const py::object& guess) {
+                         const DoubleArray& reference, const py::object& guess,
+                         const std::optional<DoubleArray>& views) {
   const std::size_t n = point_count(points, "points");
   const std::size_t m = point_count(reference, "reference");
   const ts::Pose2 g = guess_pose(guess);
+  if (views && point_count(*views, "views") != m)
+    fail(kFn, "views must have one row per reference point (" + std::to_string(m) + "), got " +
+                  std::to_string(views->size() / 2));
+  const double* v = views ? views->data() : nullptr;
   py::gil_scoped_release release;
   std::lock_guard<std::mutex> lock(self.mutex);
   return self.matcher.match(points.data(), static_cast<int>(n), reference.data(),
-                            static_cast<int>(m), g);
+                            static_cast<int>(m), g, v);
 }
 
 py::array_t<double> covariance(const ts::MatchResult& r) {
@@ -155,9 +162,12 @@ void register_slam(py::module_& m) {
            py::arg("degeneracy_ratio"),
            py::arg("degenerate_std_m"), py::arg("max_range_m"))
       .def("match", &py_match, py::arg("points"), py::arg("reference"), py::arg("guess"),
+           py::arg("views") = py::none(),
            "Match points ((n, 2) float64, the scan's frame) to reference ((m, 2) float64, the\n"
-           "map frame) from guess (x, y, yaw). Returns a ScanMatch; ok=False with a failure\n"
-           "reason when a side has too few points or too few correspondences remain.\n"
+           "map frame) from guess (x, y, yaw); views: None or (m, 2), where each reference\n"
+           "point was seen from (map frame): lines are then centred per face, and a scan\n"
+           "point pairs with the face its ray meets. Returns a ScanMatch; ok=False with a\n"
+           "failure reason when a side has too few points or too few correspondences remain.\n"
            "ValueError for a wrong shape or a non-finite value. Releases the GIL.")
       .def("__repr__", [](const LockedMatcher& s) {
              const ts::MatcherParams& p = s.matcher.params();

@@ -108,13 +108,18 @@ class ScanMatcher:
         self._native = _native.ScanMatcher(**asdict(settings))
         self.last_failure: Optional[str] = None
 
-    def match(self, points: np.ndarray, reference: np.ndarray, guess) -> Optional[MatchResult]:
+    def match(self, points: np.ndarray, reference: np.ndarray, guess,
+              views: Optional[np.ndarray] = None) -> Optional[MatchResult]:
         """Pose of the scan ``points`` ((n, 2), its own frame) on ``reference`` ((m, 2), map
-        frame), searched around ``guess`` (x, y, yaw; m, m, rad). None when there is no match
-        (see the module's docstring); ``last_failure`` then says why (None after a match).
-        ValueError for a non-finite number or a wrong shape."""
+        frame), searched around ``guess`` (x, y, yaw; m, m, rad). ``views`` ((m, 2), map frame,
+        or None): where each reference point was seen from; with them a surface's two faces are
+        told apart (a scan point pairs with the face its ray meets, the scan seen from its
+        frame's origin), so a thin wall seen from both sides does not pull scans into its middle.
+        None when there is no match (see the module's docstring); ``last_failure`` then says
+        why (None after a match). ValueError for a non-finite number or a wrong shape."""
         r = self._native.match(np.asarray(points, dtype=np.float64),
-                               np.asarray(reference, dtype=np.float64), guess)
+                               np.asarray(reference, dtype=np.float64), guess,
+                               None if views is None else np.asarray(views, dtype=np.float64))
         if not r.ok:
             self.last_failure = r.failure
             return None

@@ -577,11 +577,16 @@ class Slam:
             self.gyro = g[keep:]
         return yaw, covered, samples
 
-    def _submap(self, lo: int, hi: int) -> np.ndarray:
-        """The points of keyframes lo..hi-1 in the map frame, at their current estimates."""
-        parts = [transform_points(self.estimates[i], kf.points)
-                 for i, kf in zip(range(lo, hi), self.keyframes[lo:hi]) if len(kf.points)]
-        return np.vstack(parts) if parts else np.zeros((0, 2))
+    def _submap(self, lo: int, hi: int) -> tuple:
+        """The points of keyframes lo..hi-1 in the map frame, at their current estimates, and
+        where each was seen from (its keyframe's position): (m, 2) each, for the matcher's
+        ``views``."""
+        kept = [i for i in range(lo, hi) if len(self.keyframes[i].points)]
+        if not kept:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        points = np.vstack([transform_points(self.estimates[i], self.keyframes[i].points) for i in kept])
+        views = np.repeat(self.estimates[kept, :2], [len(self.keyframes[i].points) for i in kept], axis=0)
+        return points, views
 
     def _keyframe(self, stamp_s: float, odom: np.ndarray, points: np.ndarray, delta: np.ndarray) -> bool:
         """A keyframe at this scan; whether it was kept (``_update``)."""
@@ -595,9 +600,9 @@ class Slam:
         factors = [odometry]
         step, step_cov = self._predict(delta, cov, gyro)
         guess = compose(self.estimates[prev], step)
-        reference = self._submap(max(0, prev + 1 - self.s.submap_keyframes), prev + 1)
+        reference, views = self._submap(max(0, prev + 1 - self.s.submap_keyframes), prev + 1)
         t0 = time.perf_counter()
-        match = self.matcher.match(points, reference, guess)
+        match = self.matcher.match(points, reference, guess, views)
         self.match_ms.append(1e3 * (time.perf_counter() - t0))
         if match is not None and match.score >= self.s.match_min_score:
             if self._consistent(guess, step_cov, match):
@@ -699,8 +704,8 @@ class Slam:
             tried += 1
             self.counts["loop_tried"] += 1
             h = self.s.loop_submap_half_keyframes
-            reference = self._submap(max(0, j - h), min(first_candidate, j + h + 1))
-            match = self.loop_matcher.match(points, reference, here)
+            reference, views = self._submap(max(0, j - h), min(first_candidate, j + h + 1))
+            match = self.loop_matcher.match(points, reference, here, views)
             if match is None or match.score < self.s.loop_min_score:
                 continue
             if math.hypot(*(match.pose[:2] - here[:2])) > radius:
