@@ -92,7 +92,7 @@ struct MatcherParams {
                                        // least one cell) and floors the covariance
   int icp_iterations = 15;             // at most this many Gauss-Newton iterations per pass
   double max_correspondence_m = 0.15;  // m, a scan point pairs with a reference cell this near
-  double normal_radius_m = 0.15;       // m, reference cells within this fit a cell's line
+  double normal_radius_m = 0.1;        // m, reference cells within this fit a cell's line
   double huber_m = 0.03;               // m, Huber kernel: residuals beyond it weigh k / |r|
   double inlier_m = 0.05;              // m, residual up to which a scan point counts in the score
   int min_points = 30;                 // fewer scan points, reference points or pairs: no match

@@ -169,12 +169,13 @@ def test_covariance_is_body_frame_and_shrinks_with_structure(sims):
     R = rotation3(turn)[:2, :2]
     g = np.array([*(R @ guess[:2]), guess[2] + turn])
     turned = matcher.match(points, reference @ R.T, g)
-    # (up to the grid's cells, which fall differently on the turned walls: mm, a few %)
+    # (up to the grid's cells, which fall differently on the turned walls: mm in the pose; in the
+    # covariance ~20 %, the lines' normals fitted over a disc two cells wide: 3 % with 0.15 m)
     np.testing.assert_allclose(turned.pose[:2], R @ full.pose[:2], atol=3e-3)
     size = np.linalg.norm(full.covariance)
     body_change = np.linalg.norm(turned.covariance - full.covariance)
     map_change = np.linalg.norm(turned.covariance - rotation3(turn) @ full.covariance @ rotation3(turn).T)
-    assert body_change < 0.1 * size and map_change > 3 * body_change
+    assert body_change < 0.3 * size and map_change > 3 * body_change
     # Only the beams within 40 deg of the sensor's heading (mostly one wall): less structure,
     # a larger covariance in translation and in yaw.
     front = points[np.abs(np.arctan2(points[:, 1], points[:, 0])) < math.radians(40)]
@@ -299,3 +300,48 @@ def test_a_thin_wall_seen_from_both_sides_pulls_a_scan_only_without_viewpoints()
     assert np.hypot(*(with_views.pose[:2] - truth[:2])) < 0.005, with_views.pose
     assert abs(wrap_angle(with_views.pose[2] - truth[2])) < 0.002
     assert without.pose[1] - truth[1] > 0.015, without.pose     # pulled into the wall's middle
+
+
+def corridor_with_doors(tmp_path):
+    """A corridor 1.2 m wide and 15.6 m long between walls 0.1 m thick, with a 0.8 m door into
+    a room every 3.5 m on either side (the door jambs are what fix a scan along it)."""
+    from conftest import write_world
+    res = 0.05
+    free = np.zeros((int(6.0 / res), int(16.0 / res)), bool)
+
+    def box(x0, y0, x1, y1):
+        free[int(round(y0 / res)):int(round(y1 / res)), int(round(x0 / res)):int(round(x1 / res))] = True
+    box(0.2, 2.4, 15.8, 3.6)
+    for k in range(4):
+        x0 = 1.0 + 3.5 * k
+        box(x0, 3.7, x0 + 3.0, 5.6)               # a room north ...
+        box(x0 + 1.0, 3.6, x0 + 1.8, 3.7)         # ... and its door
+        box(x0 + 0.5, 0.4, x0 + 2.5, 2.3)         # a room south ...
+        box(x0 + 1.5, 2.3, x0 + 2.3, 2.4)         # ... and its door
+    return write_world(tmp_path, "corridor", free, start=[1.0, 3.0, 0.0])
+
+
+@pytest.mark.parametrize("radius_m, biased", [(MatcherSettings().normal_radius_m, False), (0.15, True)])
+def test_door_jambs_do_not_push_a_corridors_matches_forward(make_sim, tmp_path, radius_m, biased):
+    """Keyframes every 0.25 m down the corridor (noise-free scans at known poses), each matched
+    to the 12 before it, as SLAM's submap: the mean error along the corridor stays under 1 mm.
+    A line fitted over 0.15 m took in a door jamb's end face with the corridor wall's: +2.4 mm
+    forward per keyframe, a map stretched by 1 % (the recorded house drive: +0.6 %)."""
+    sim = make_sim(corridor_with_doors(tmp_path), seed=1)
+    lid = sim.robot.lidar
+    matcher = ScanMatcher(MatcherSettings(normal_radius_m=radius_m))
+    keyframes, errors = [], []
+    for x in np.arange(1.0, 14.0, 0.25):
+        pose = np.array([x, 3.0 + 0.05 * math.sin(x), 0.02 * math.cos(2 * x)])
+        sim.set_pose(*pose)
+        pts = scan_points(sim.true_ranges(), lid.angle_min_rad, lid.angle_increment_rad, lid.range_min_m,
+                          lid.range_max_m) + np.array([lid.x_m, lid.y_m])
+        if keyframes:
+            ref = np.vstack([to_map(p, q) for q, p in keyframes[-12:]])
+            views = np.vstack([np.tile(q[:2], (len(p), 1)) for q, p in keyframes[-12:]])
+            result = matcher.match(pts, ref, pose, views)
+            assert result is not None, matcher.last_failure
+            errors.append(result.pose - pose)
+        keyframes.append((pose, pts))
+    along = float(np.mean(np.asarray(errors)[:, 0]))
+    assert (along > 0.0018) if biased else (abs(along) < 0.001), along

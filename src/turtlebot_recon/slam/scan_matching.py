@@ -41,8 +41,10 @@ class MatcherSettings:
                                         # blurs the lookup grid (>= one cell), floors the covariance
     icp_iterations: int = 15            # most Gauss-Newton iterations of the ICP
     max_correspondence_m: float = 0.15  # m, a scan point pairs with a reference line this near
-    normal_radius_m: float = 0.15       # m, reference points of the cells within this fit the
-                                        # line a scan point is matched to
+    normal_radius_m: float = 0.1        # m, reference points of the cells within this fit the
+                                        # line a scan point is matched to (a wider disc takes in a
+                                        # door jamb's or a corner's other face: 0.15 pushed scans
+                                        # 2-3 mm forward per keyframe in a corridor)
     huber_m: float = 0.03               # m, Huber kernel width: larger residuals weigh k / |r|
     inlier_m: float = 0.05              # m, residual up to which a scan point counts in the score
     min_points: int = 30                # fewer scan points, reference points or point-to-line
