@@ -190,10 +190,10 @@ class ScanMatcher {
 
   // scan: n (x, y) points in the scan's frame; reference: m (x, y) points in the map frame;
   // views: null, or for each reference point the (x, y) it was seen from (map frame; the
-  // scan's own viewpoint is its frame's origin); all row-major and finite (the binding checks). Scan points beyond max_range_m are left
-  // out. Not ok, with the reason, when a side has fewer than min_points points, fewer than
-  // min_points pairs remain, ICP slides away from the coarse pose or the pairs leave the pose
-  // unconstrained.
+  // scan's own viewpoint is its frame's origin); all row-major and finite (the binding
+  // checks). Scan points beyond max_range_m are left out. Not ok, with the reason, when a
+  // side has fewer than min_points points, fewer than min_points pairs remain, ICP slides away
+  // from the coarse pose or the pairs leave the pose unconstrained.
   MatchResult match(const double* scan, int n_all, const double* reference, int m, Pose2 guess,
                     const double* views = nullptr) {
     MatchResult out;
