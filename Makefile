@@ -37,7 +37,8 @@ help:
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
 	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM, tag missions"
 	@echo "                 with SLAM, tags landmarks in the graph or not -> output/bench/slam.json"
-	@echo "                 (LIVE=0 offline parts only, SEEDS=N, RESUME=1, DRIVE_S=sim s per recorded drive)"
+	@echo "                 (LIVE=0 offline parts only, SEEDS=N SLAM explorations per world (3), TAG_SEEDS=N tag missions (1),"
+	@echo "                 RESUME=1, DRIVE_S=sim s per recorded drive)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-control  seed 000's noisy unicycle and racetrack (MPPI vs Tube MPPI) and the controllers'"
@@ -147,6 +148,7 @@ bench-tags: build
 # explorations with and without SLAM at the default drift (LIVE=0: the offline parts only).
 bench-slam: build
 	@$(ENV) python test/benchmarks/bench_slam.py $(if $(filter 0,$(LIVE)),,--live) $(if $(SEEDS),--seeds $(SEEDS)) \
+	  $(if $(TAG_SEEDS),--tag-seeds $(TAG_SEEDS)) \
 	  $(if $(RESUME),--resume) $(if $(DRIVE_S),--drive-s $(DRIVE_S))
 
 # The bench's own defaults (recon and the oracle, the shipped, real and held-out worlds, 3 seeds

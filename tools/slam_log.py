@@ -75,7 +75,7 @@ def main(argv=None) -> int:
           f"of log in {result.wall_seconds:.1f} s ({result.speedup:.1f}x real time); iSAM2 median "
           f"{st.get('isam2_ms_median', float('nan')):.1f} ms"
           + (f"; gyro scale error {100 * st['gyro_scale']:+.2f} %, bias {1e3 * st['gyro_bias_radps']:+.3f} mrad/s "
-             f"(std {1e3 * st['gyro_bias_std_radps']:.3f})" if "gyro_bias_radps" in st else "")
+             f"(std {1e3 * st['gyro_bias_std_radps']:.3f})" if "gyro_scale" in st else "")
           + f"; {result.log_summary}; written to {a.output}")
     if result.stopped:
         print(f"slam_log: {result.stopped}; what it had is written to {a.output}", file=sys.stderr)

@@ -595,10 +595,13 @@ class ScanMatcher {
         continue;
       }
       if (d2 > gate2) continue;
-      // the face this scan point's ray meets (the scan is seen from its frame's origin)
-      const int f = rc.normal.dot(q - Eigen::Vector2d(pose.x, pose.y)) < 0 ? 0 : 1;
-      if (faces_ && !rc.face[f]) continue;
-      const double r = rc.normal.dot(q - (faces_ ? rc.face_centre[f] : rc.centre));
+      Eigen::Vector2d centre = rc.centre;
+      if (faces_) {   // the face this scan point's ray meets (the scan is seen from its frame's origin)
+        const int f = rc.normal.dot(q - Eigen::Vector2d(pose.x, pose.y)) < 0 ? 0 : 1;
+        if (!rc.face[f]) continue;
+        centre = rc.face_centre[f];
+      }
+      const double r = rc.normal.dot(q - centre);
       const Eigen::Vector3d J(rc.normal.x(), rc.normal.y(),
                               rc.normal.dot(Eigen::Vector2d(-s * pt.x() - c * pt.y(),
                                                             c * pt.x() - s * pt.y())));

@@ -12,18 +12,20 @@
    slam.yaml) set to its slip, as a user who measured such a robot's odometry would set it.
 2. **GTSAM's city10000** through the back end edge by edge: per-step time and the final error
    against the iSAM2 reference shipped with the wheel.
-3. **Full explorations** (``--live``; what `make bench-slam` runs): `explore_sim.launch` on the
-   three worlds with the burger at the default drift, odometry alone (``slam:=false``) and
-   with SLAM (``slam:=true``), as `make bench-explore` runs them (runs in
-   output/bench/slam_runs_odom/ and slam_runs_slam/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
+3. **Full explorations** (``--live``; what `make bench-slam` runs), two at a time:
+   `explore_sim.launch` on the three worlds with the burger at the default drift, with SLAM
+   (``slam:=true``, ``--seeds`` per world, 3) and, seed 0 only, odometry alone
+   (``slam:=false``), as `make bench-explore` runs them (runs in output/bench/slam_runs_slam/
+   and slam_runs_odom/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
    map precision, coverage, collisions and the full stack's real-time factor. Then the
-   waffle_pi's tag missions (``mission:=tags``) with SLAM on house and office, the tags
-   landmarks in SLAM's graph (``tag_landmarks:=true``, the default with SLAM: /tags at the
-   graph's positions) and not (the tracker's own estimates), two at a time (runs in
+   waffle_pi's tag missions (``mission:=tags``) with SLAM on house and office (``--tag-seeds``,
+   1), the tags landmarks in SLAM's graph (``tag_landmarks:=true``, the default with SLAM: /tags
+   at the graph's positions) and not (the tracker's own estimates) (runs in
    output/bench/slam_runs_tags_landmarks/ and slam_runs_tags_no_landmarks/): the tag errors
    with and without landmarks and the graph's landmarks (slam/landmarks) against the truth.
 
-Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst world),
+Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst run; issue 31's
+``ate_m_live_max``), ``ate_m_live_median_max`` (each world's median over its seeds, the worst),
 ``ate_ratio_odom_over_slam_min``, ``map_precision_min``, ``isam2_ms_median``/``_p99``/``_max``
 (the largest run), ``scan_match_ms_median``, ``memory_mb_per_1000_keyframes``,
 ``city10000_ms_median``, ``city10000_max_error_m``, ``full_stack_rtf_slam``; issue 31 item 6:
@@ -171,20 +173,22 @@ def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resu
     return out
 
 
-def live(seeds: int, resume: bool, budget: float, tag_jobs: int = 2, min_rtf: float = 0.0) -> dict:
-    """The burger's map explorations, odometry alone and with SLAM, one at a time; then the
-    waffle_pi's tag missions with SLAM (TAG_WORLDS), its tags landmarks in the graph and not,
-    two at a time (``tag_jobs``)."""
-    runs = explorations({"odom": "slam:=false odom_slip:=0.01", "slam": "slam:=true odom_slip:=0.01"},
-                        WORLDS, ROBOT, "map", seeds, resume, budget, 1, min_rtf)
-    runs.update(tag_missions(seeds, resume, budget, tag_jobs, min_rtf))
+def live(seeds: int, resume: bool, budget: float, tag_seeds: int = 1, min_rtf: float = 0.0) -> dict:
+    """The burger's map explorations with SLAM (``seeds`` per world) and, as the reference,
+    odometry alone (seed 0); then the waffle_pi's tag missions with SLAM (TAG_WORLDS,
+    ``tag_seeds``), its tags landmarks in the graph and not; all two at a time."""
+    runs = explorations({"slam": "slam:=true odom_slip:=0.01"}, WORLDS, ROBOT, "map", seeds, resume, budget, 2,
+                        min_rtf)
+    runs.update(explorations({"odom": "slam:=false odom_slip:=0.01"}, WORLDS, ROBOT, "map", 1, resume, budget, 2,
+                             min_rtf))
+    runs.update(tag_missions(tag_seeds, resume, budget, min_rtf))
     return runs
 
 
-def tag_missions(seeds: int, resume: bool, budget: float, jobs: int = 2, min_rtf: float = 0.0) -> dict:
+def tag_missions(seeds: int, resume: bool, budget: float, min_rtf: float = 0.0) -> dict:
     return explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
                          "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
-                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, jobs, min_rtf)
+                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, 2, min_rtf)
 
 
 def summary(rec: dict, city: dict, runs: dict) -> dict:
@@ -239,6 +243,14 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
     odom = [v for k, v in runs.items() if k.startswith("odom/") and isinstance(v, dict)]
     if slam:
         fig["ate_m_default_max"] = max(v["ate_m"] for v in slam if v["ate_m"] is not None)
+        # issue 31: each world's median over its seeds, the worst world; and the worst run
+        per_world = {}
+        for key, v in runs.items():
+            if key.startswith("slam/") and isinstance(v, dict) and v["ate_m"] is not None:
+                per_world.setdefault(key.split("/")[1], []).append(v["ate_m"])
+        fig["ate_m_live_median_by_world"] = {w: statistics.median(a) for w, a in per_world.items()}
+        fig["ate_m_live_median_max"] = max(fig["ate_m_live_median_by_world"].values())
+        fig["ate_m_live_max"] = fig["ate_m_default_max"]
         fig["keyframe_ate_m_default_max"] = max(v.get("keyframe_ate_m") or 0.0 for v in slam)
         fig["map_precision_min"] = min(min(v["map_precision_occupied"], v["map_precision_free"]) for v in slam)
         fig["coverage_min_slam"] = min(v["coverage_final"] for v in slam)
@@ -267,13 +279,12 @@ def main(argv=None) -> int:
     p.add_argument("--drive-s", type=float, default=600.0, help="sim seconds of each recorded drive")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--live", action="store_true", help="also the full explorations (odometry alone vs SLAM)")
-    p.add_argument("--seeds", type=int, default=1, help="seeds of the full explorations")
+    p.add_argument("--seeds", type=int, default=3, help="seeds per world of the burger's explorations with SLAM")
+    p.add_argument("--tag-seeds", type=int, default=1, help="seeds per world of the tag missions")
     p.add_argument("--budget", type=float, default=0.0, help="sim s of each exploration (0: bench-explore's rule)")
     p.add_argument("--resume", action="store_true", help="reuse finished explorations")
     p.add_argument("--tags-only", action="store_true", help="only the waffle_pi's tag missions with SLAM, landmarks "
                    "in the graph and not (slam.json then holds their keys alone, and says so in 'parts')")
-    p.add_argument("--tag-jobs", type=int, default=2, help="tag missions run at once (1 on a machine shared "
-                   "with other work)")
     p.add_argument("--min-rtf", type=float, default=0.0, help="the explorations' wall limit: startup + budget / "
                    "this (0: bench-explore's default, 2); lower it on a loaded machine")
     p.add_argument("--recorded-from", help="take the recorded drives' and city10000's results from this earlier "
@@ -281,7 +292,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     t0 = time.monotonic()
     if a.tags_only:
-        runs = tag_missions(a.seeds, a.resume, a.budget, a.tag_jobs, a.min_rtf)
+        runs = tag_missions(a.tag_seeds, a.resume, a.budget, a.min_rtf)
         fig = summary({}, {}, runs)
         fig.update(parts=["tag missions with SLAM (--tags-only)"], runs=runs, wall_s=time.monotonic() - t0)
         write("slam", fig)
@@ -298,7 +309,7 @@ def main(argv=None) -> int:
         city = run_city10000()
     print(f"[bench-slam] city10000: median {city['city10000_ms_median']:.2f} ms, max error "
           f"{city['city10000_max_error_m']:.3f} m", flush=True)
-    runs = live(a.seeds, a.resume, a.budget, a.tag_jobs, a.min_rtf) if a.live else {}
+    runs = live(a.seeds, a.resume, a.budget, a.tag_seeds, a.min_rtf) if a.live else {}
     fig = summary(rec, city, runs)
     fig["recorded"] = rec
     fig["runs"] = runs

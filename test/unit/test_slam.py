@@ -291,31 +291,17 @@ def test_a_loop_closure_that_jumps_beyond_the_poses_uncertainty_is_refused(two_l
     assert slam.stats()["loop_accepted"] >= 1          # the true closures of the two laps passed it
 
 
-def test_the_gyros_scale_error_is_fitted_to_the_matched_turns(two_laps):
+def test_the_gyros_scale_error_is_estimated_in_the_graph(two_laps):
     """The simulator's gyro over-reads every turn by its scale error (1.5 %, SimSettings'
-    default); two laps round the block (4 pi of turning) pin it down to a few tenths of a %."""
+    default); two laps round the block (4 pi of turning) pin the graph's scale variable down to
+    a few tenths of a %."""
     from turtlebot_recon.sim.simulator import SimSettings
     slam = two_laps[0]
     truth = SimSettings().gyro_scale_error
     assert truth == 0.015
     st = slam.stats()
-    assert slam.gyro_scale.used >= 20, slam.gyro_scale.used
     assert abs(st["gyro_scale"] - truth) < 0.004, st
     assert st["gyro_scale_std"] < 0.004, st
-
-
-def test_gyro_scale_fit_recovers_a_known_scale_and_ignores_an_outlier():
-    from turtlebot_recon.slam.slam import GyroScale
-    rng = np.random.default_rng(0)
-    fit = GyroScale(0.02)
-    for _ in range(200):
-        turn = rng.uniform(-0.26, 0.26)
-        fit.update(1.025 * turn + rng.normal(0, 0.002), turn, 0.002 ** 2)
-    assert fit.used >= 195                                             # a 3 sigma gate keeps ~99.7 %
-    assert fit.update(0.26 * 1.025 + 0.2, 0.26, 0.002 ** 2) is False    # a match pulled 0.2 rad off
-    assert abs(fit.value - 0.025) < 0.002 and fit.std < 0.002
-    assert abs(fit.correct(1.025) - 1.0) < 0.002
-    assert GyroScale(0.0).value == 0.0 and GyroScale(0.0).correct(0.3) == 0.3   # prior 0: the scale is known
 
 
 def test_a_partition_seen_from_both_rooms_does_not_shrink_the_map(tmp_path):

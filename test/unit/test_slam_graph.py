@@ -405,16 +405,17 @@ def turn_sequence(bias_radps, scale_error, use_gyro=True, steps=100, seed=0):
         if use_gyro:
             if k == 1:
                 graph.add_bias(0, prior_std=0.001)
+                graph.add_gyro_scale(0.02)
             graph.add_bias(k, walk_from=k - 1, walk_std=1e-6)
             raw = (1 + scale_error) * turn + bias_radps * 1.0 + rng.normal(0, 0.0002)
-            graph.add_yaw_rate(k - 1, k, raw / (1 + scale_error), 1.0, 0.0002, 1 + scale_error)
+            graph.add_yaw_rate(k - 1, k, raw, 1.0, 0.0002)
         graph.update()
     return graph, np.array(theta)
 
 
-def test_the_yaw_rate_factor_recovers_a_known_gyro_bias():
-    """A bias of 2 mrad/s (the gyro's 5e-5 rad/s x 40, so that 100 s show it) and a known scale
-    error of 1.5 %. Each step's residual gyro - match turn is b * 1 s + noise of ~1.5 mrad (the
+def test_the_yaw_rate_factor_recovers_the_gyros_bias_and_scale():
+    """A bias of 2 mrad/s (the gyro's 5e-5 rad/s x 40, so that 100 s show it) and a scale error
+    of 1.5 %, both unknown to the graph. Each step's residual gyro - match turn is b * 1 s + noise of ~1.5 mrad (the
     match's), so 100 steps fix b to ~1.5e-4 rad/s (1.5 mrad / sqrt(100)); the bias walks by
     1e-5 over them. The heading then follows the gyro less its bias: its error stays near the
     matches' chained noise (1.5 mrad x sqrt(100) / a few), where the bias alone is 0.2 rad over
@@ -424,11 +425,13 @@ def test_the_yaw_rate_factor_recovers_a_known_gyro_bias():
     assert abs(b - 0.002) < 4e-4, (b, std)                       # recovered (0 without the factor)
     assert 1e-4 < std < 3e-4, std                                # 1.5e-4 expected, as above
     assert abs(graph.bias(0) - graph.bias(100)) < 1e-4           # one bias, walking slowly
+    k, k_std = graph.gyro_scale()                                # ~25 rad turned against 1.5 mrad
+    assert abs(k - 0.015) < 0.002 and k_std < 0.001, (k, k_std)  # matches: k to ~1e-4
     errors = np.array([wrap_angle(graph.pose(k)[2] - theta[k]) for k in range(101)])
     assert np.abs(errors).max() < 0.01, np.abs(errors).max()     # 0.2 rad of bias over 100 s
     # the bias the matches see is the gyro's: wheel odometry and matches alone leave none
     plain, _ = turn_sequence(0.002, 0.015, use_gyro=False)
-    assert not plain.has_bias(100)
+    assert not plain.has_bias(100) and plain.gyro_scale() is None
     with pytest.raises(ValueError, match="no bias"):
         plain.bias(100)
 
@@ -444,6 +447,11 @@ def test_the_gyro_bias_is_refused_without_a_chain_and_dropped_with_a_failed_upda
         graph.add_bias(0, prior_std=0.0)
     graph.add_bias(0, prior_std=1e-3)
     graph.add_bias(1, walk_from=0, walk_std=1e-6)
+    with pytest.raises(ValueError, match="no gyro scale"):
+        graph.add_yaw_rate(0, 1, 0.0, 1.0, 1e-3)
+    graph.add_gyro_scale(0.02)
+    with pytest.raises(ValueError, match="already"):
+        graph.add_gyro_scale(0.02)
     with pytest.raises(ValueError, match="finite"):
         graph.add_yaw_rate(0, 1, float("nan"), 1.0, 1e-3)
     graph.add_yaw_rate(0, 1, 0.001, 1.0, 1e-4)
@@ -460,3 +468,19 @@ def test_the_gyro_bias_is_refused_without_a_chain_and_dropped_with_a_failed_upda
     graph.add_bias(2, walk_from=1, walk_std=1e-6)
     graph.update()
     assert graph.has_bias(2)
+    # the scale error queued with a refused update goes with it and can be queued again
+    fresh = PoseGraph()
+    fresh.add_keyframe((0.3, 0.0, 0.1), [(0, (0.3, 0.0, 0.1), ODOM_COV)])
+    fresh.add_bias(0, prior_std=1e-3)
+    fresh.add_gyro_scale(0.02)
+    fresh.add_yaw_rate(0, 1, 0.1, 1.0, 1e-3)
+    fresh._isam = FailingISAM2(fresh._isam)
+    with pytest.raises(ValueError, match="iSAM2 refused"):
+        fresh.update()
+    assert fresh.gyro_scale() is None and fresh.last_bias() is None
+    fresh.add_keyframe((0.3, 0.0, 0.1), [(0, (0.3, 0.0, 0.1), ODOM_COV)])
+    fresh.add_bias(0, prior_std=1e-3)
+    fresh.add_gyro_scale(0.02)
+    fresh.add_yaw_rate(0, 1, 0.1, 1.0, 1e-3)
+    fresh.update()
+    assert fresh.gyro_scale()[1] < 0.02

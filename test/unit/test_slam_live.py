@@ -80,6 +80,8 @@ def test_live_slam_holds_a_scan_for_the_gyro_publishes_saves_and_resets(tmp_path
     assert isinstance(update, PathUpdate) and update.stamps == [0.1] and update.loops == []
     np.testing.assert_allclose(update.poses, [[0.0, 0.0, 0.0]])
     assert live.map_to_odom == (0.0, 0.0, 0.0)
+    line = live.status_line()            # no gyro step yet: no bias or scale to report
+    assert line.startswith("1 keyframes (0 matched") and "gyro" not in line, line
     assert live.add_tag(0.15, "tag36h11:3", np.array([1.0, 0.5, 0.3]), np.eye(3) * 0.01, (0.0, 0.0, 0.0)) is None
     line = live.save(str(tmp_path / "out"), "test")
     assert line.startswith(f"graph and trajectories saved (test) to {tmp_path / 'out'}")

@@ -15,15 +15,18 @@ as in GTSAM's Pose2 iSAM2 example:
 4. landmark sightings: ``BearingRangeFactor2D`` (position) or ``BetweenFactorPose2`` (pose),
    Gaussian; a landmark enters only with its second consistent sighting, so iSAM2 never meets an
    under-determined variable, and a sighting far outside the estimate's uncertainty is refused;
-5. the gyro (``add_bias``, ``add_yaw_rate``): a prior on the first bias variable, a random walk
-   ``BetweenFactorDouble`` from each bias to the next, and per keyframe step i -> j a yaw-rate
-   factor on ``X(i)``, ``X(j)`` and the bias ``B(m)`` the step has (``B(i)`` where each keyframe
-   has one): the gyro integrates ``(1 + k) (theta_j - theta_i) + b dt`` over the step (k its scale error, fitted outside the graph: ``slam.GyroScale``), so
-   with the turn divided by ``1 + k`` its error is ``theta_j - theta_i + b dt / (1 + k) -
-   turn``, linear in all three (a ``gtsam.CustomFactor``: GTSAM's ``AHRSFactor`` is the same idea
-   for ``Rot3`` and a 3-vector bias, and does not fit a ``Pose2`` graph). Every step shares the
-   bias, so the graph weighs the turns' common error as one, where independent odometry factors
-   each took their share as their own.
+5. the gyro (``add_bias``, ``add_gyro_scale``, ``add_yaw_rate``): a prior on the first bias
+   variable, a random walk ``BetweenFactorDouble`` from each bias to the next, one variable
+   ``K(0)`` for the gyro's scale factor error k under a prior (a fraction, held in per mille:
+   ``SCALE_UNIT``), and per keyframe step i -> j a yaw-rate factor on ``X(i)``, ``X(j)``, the
+   bias ``B(m)`` the step has (``B(i)`` where each keyframe has one) and ``K(0)``: the gyro
+   integrates ``(1 + k) (theta_j - theta_i) + b dt`` over the step, and the factor's error is
+   that less its reading (a ``gtsam.CustomFactor``: GTSAM's ``AHRSFactor`` is the same idea for
+   ``Rot3`` and a 3-vector bias, and does not fit a ``Pose2`` graph). Every step shares the bias
+   and the scale, so the graph weighs the turns' common error as one, where independent
+   odometry factors each took their share as their own; and a turn made before k was known is
+   corrected by the turns after it (a scale fitted outside the graph left the first minute's
+   turns in place: a house's whole map turned by 2-5 mrad).
 
 Each ``add_*`` call queues factors and values; ``update`` hands everything queued to one
 ``ISAM2.update`` (a fresh ``new_factors`` / ``new_values`` per step) and returns its wall time.
@@ -50,7 +53,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import gtsam
 import numpy as np
-from gtsam.symbol_shorthand import B, L, T, X
+from gtsam.symbol_shorthand import B, K, L, T, X
 
 from ..config import positive, require
 from ..geometry import wrap_angle
@@ -61,6 +64,10 @@ BIAS_UNIT_RADPS = 1e-3       # B(k) holds the gyro's bias in mrad/s: iSAM2's thr
                              # change below it; in rad/s no bias change (~1e-4) ever passed it
                              # (the first keyframes' bias stayed 2e-4 rad/s off the last's). In
                              # mrad/s, 0.001 turns the heading by 1 mrad over 1,000 s
+SCALE_UNIT = 1e-3            # K(0) holds the gyro's scale error in per mille, for the same reason
+SCALE_RELINEARIZE = 1.0      # per mille: K(0)'s move that relinearises the yaw-rate factors (with the
+                             # headings they multiply, off by < 5 mrad, a 1 per mille error in the
+                             # Jacobian is 5e-6 rad)
 MIN_LANDMARK_RANGE_M = 0.05   # a position sighting nearer than this has no usable bearing
                               # (tags are seen from 0.2 m and beyond)
 
@@ -151,7 +158,8 @@ class PoseGraph:
         thresholds = gtsam.ISAM2ThresholdMap()
         # a bias never: every factor on it is linear in it (relinearising the chain of them each
         # time the newest moved relinearised every yaw-rate factor: p99 19 -> 116 ms on a drive)
-        for letter, vector in (("x", [m, m, rad]), ("t", [m, m, rad]), ("l", [m, m]), ("b", [math.inf])):
+        for letter, vector in (("x", [m, m, rad]), ("t", [m, m, rad]), ("l", [m, m]), ("b", [math.inf]),
+                               ("k", [SCALE_RELINEARIZE])):
             thresholds.insert((letter, np.array(vector)))
         params.setRelinearizeThreshold(thresholds)
         params.relinearizeSkip = self.s.relinearize_skip
@@ -175,6 +183,8 @@ class PoseGraph:
         self._next_landmark = 0       # j of the next landmark
         self._biases: List[int] = []  # keyframes with a bias variable B(k), in the order added
         self._biases_done = 0         # of them in iSAM2
+        self._scale = 0               # K(0): 0 none, 1 queued, 2 in iSAM2
+        self._scale_std: Optional[float] = None   # its marginal's std, until the next update
         self._estimate: Optional[gtsam.Values] = None   # calculateEstimate, until the next update
         first = _pose(first_pose, "first_pose")
         self._new_factors.add(gtsam.PriorFactorPose2(X(0), first, self._prior_noise))
@@ -242,24 +252,36 @@ class PoseGraph:
         self._new_values.insert(B(int(key)), guess)
         self._biases.append(int(key))
 
-    def add_yaw_rate(self, i: int, j: int, turn_rad: float, span_s: float, std_rad: float,
-                     scale: float = 1.0, bias_key: Optional[int] = None) -> None:
+    def add_gyro_scale(self, prior_std: float) -> None:
+        """Queue the gyro's scale factor error ``K(0)`` (a fraction: it reads (1 + k) times the
+        true turn) under the prior N(0, ``prior_std``²); once per graph."""
+        if self._scale:
+            raise ValueError("gyro scale: already in the graph")
+        noise = gtsam.noiseModel.Isotropic.Sigma(1, _std(prior_std, "gyro scale: prior_std") / SCALE_UNIT)
+        self._new_factors.add(gtsam.PriorFactorDouble(K(0), 0.0, noise))
+        self._new_values.insert(K(0), 0.0)
+        self._scale = 1
+
+    def add_yaw_rate(self, i: int, j: int, reading_rad: float, span_s: float, std_rad: float,
+                     bias_key: Optional[int] = None) -> None:
         """Queue a yaw-rate factor: the gyro's rate integrated from keyframe ``i`` to ``j`` over
-        ``span_s`` and divided by ``scale`` (1 + its scale error), ``turn_rad``, with the std of
-        its white noise ``std_rad``, measures theta_j - theta_i + B(m) ``span_s`` / ``scale``, m
-        = ``bias_key`` (default i: the bias at the step's start)."""
+        ``span_s``, ``reading_rad``, with the std of its white noise ``std_rad``, measures
+        (1 + K(0)) (theta_j - theta_i) + B(m) ``span_s``, m = ``bias_key`` (default i: the bias
+        at the step's start)."""
         what = f"yaw rate {i} -> {j}"
         self._check_key(i, what)
         self._check_key(j, what)
         m = i if bias_key is None else bias_key
         if not self.has_bias(m):
             raise ValueError(f"{what}: no bias at keyframe {m}")
-        numbers = np.array([turn_rad, span_s, scale], float)
-        if not np.all(np.isfinite(numbers)) or span_s < 0.0 or scale <= 0.0:
-            raise ValueError(f"{what}: turn, span >= 0 and scale > 0 must be finite, got {numbers.tolist()}")
+        if not self._scale:
+            raise ValueError(f"{what}: no gyro scale variable (add_gyro_scale)")
+        numbers = np.array([reading_rad, span_s], float)
+        if not np.all(np.isfinite(numbers)) or span_s < 0.0:
+            raise ValueError(f"{what}: reading and span >= 0 must be finite, got {numbers.tolist()}")
         noise = gtsam.noiseModel.Isotropic.Sigma(1, _std(std_rad, f"{what}: std_rad"))
-        self._new_factors.add(yaw_rate_factor(X(int(i)), X(int(j)), B(int(m)), float(turn_rad),
-                                              BIAS_UNIT_RADPS * float(span_s) / float(scale), noise))
+        self._new_factors.add(yaw_rate_factor(X(int(i)), X(int(j)), B(int(m)), K(0), float(reading_rad),
+                                              BIAS_UNIT_RADPS * float(span_s), noise))
 
     def add_landmark(self, name: str, key: int, observation, covariance) -> Optional[str]:
         """A sighting of landmark ``name`` from keyframe ``key`` (already through ``update``):
@@ -337,6 +359,8 @@ class PoseGraph:
         self._guesses.insert(values)
         self._n_done, self._loops_done = self._n, len(self._loops)
         self._biases_done = len(self._biases)
+        self._scale = 2 if self._scale else 0
+        self._scale_std = None
         for lm in self._landmarks.values():
             if lm.entered:
                 lm.uncommitted = []
@@ -350,6 +374,7 @@ class PoseGraph:
         self._n = self._n_done
         del self._loops[self._loops_done:]
         del self._biases[self._biases_done:]
+        self._scale = 2 if self._scale == 2 else 0
         self._landmarks = {name: lm for name, lm in self._landmarks.items()
                            if not lm.entered or self._guesses.exists(lm.key)}
         start = before if before is not None and before.size() == self._guesses.size() else self._guesses
@@ -404,6 +429,16 @@ class PoseGraph:
         if key not in self._biases[:self._biases_done]:
             raise ValueError(f"bias_std {key}: keyframe {key!r} has no bias through update() yet")
         return BIAS_UNIT_RADPS * math.sqrt(float(self._isam.marginalCovariance(B(int(key)))[0, 0]))
+
+    def gyro_scale(self) -> Optional[Tuple[float, float]]:
+        """The gyro's scale factor error (fraction) and its std from the marginal, once it has
+        been through ``update``; None before. The std is kept until the next update (``K(0)``
+        is touched by every step, so it sits in the Bayes tree's root: its marginal is cheap)."""
+        if self._scale != 2:
+            return None
+        if self._scale_std is None:
+            self._scale_std = SCALE_UNIT * math.sqrt(float(self._isam.marginalCovariance(K(0))[0, 0]))
+        return SCALE_UNIT * float(self._current().atDouble(K(0))), self._scale_std
 
     def landmarks(self) -> Dict[str, np.ndarray]:
         """Name -> (x, y) of every landmark in the optimised graph (two sightings or more)."""
@@ -598,23 +633,26 @@ def _bearing_range(pose_key: int, point_key: int, xy: np.ndarray, cov, what: str
     return gtsam.BearingRangeFactor2D(pose_key, point_key, gtsam.Rot2(math.atan2(xy[1], xy[0])), r, noise)
 
 
-def yaw_rate_factor(key_i: int, key_j: int, key_bias: int, turn_rad: float, bias_gain: float,
-                    noise) -> gtsam.CustomFactor:
-    """The gyro's turn between two Pose2 keyframes, bias included:
-    error = wrap(theta_j - theta_i + b * bias_gain - turn_rad), b in the bias variable's unit and
-    ``bias_gain`` the turn one unit of it makes over the step. A Pose2's tangent is (x, y,
-    theta) in its own frame, so the heading's Jacobian is (0, 0, 1), the bias's the gain."""
+def yaw_rate_factor(key_i: int, key_j: int, key_bias: int, key_scale: int, reading_rad: float,
+                    bias_gain: float, noise) -> gtsam.CustomFactor:
+    """The gyro's turn between two Pose2 keyframes, bias and scale error included:
+    error = wrap((1 + k SCALE_UNIT) dtheta + b bias_gain - reading_rad), dtheta = wrap(theta_j -
+    theta_i), b in the bias variable's unit and ``bias_gain`` the turn one unit of it makes over
+    the step, k the scale variable's. A Pose2's tangent is (x, y, theta) in its own frame, so
+    the headings' Jacobians are (0, 0, -+(1 + k)), the bias's the gain, the scale's dtheta."""
     def error(this: gtsam.CustomFactor, values: gtsam.Values, H: Optional[List[np.ndarray]]) -> np.ndarray:
-        theta_i = values.atPose2(this.keys()[0]).theta()
-        theta_j = values.atPose2(this.keys()[1]).theta()
-        b = values.atDouble(this.keys()[2])
+        keys = this.keys()
+        turn = wrap_angle(values.atPose2(keys[1]).theta() - values.atPose2(keys[0]).theta())
+        b = values.atDouble(keys[2])
+        gain = 1.0 + SCALE_UNIT * values.atDouble(keys[3])
         if H is not None:
-            H[0] = np.array([[0.0, 0.0, -1.0]])
-            H[1] = np.array([[0.0, 0.0, 1.0]])
+            H[0] = np.array([[0.0, 0.0, -gain]])
+            H[1] = np.array([[0.0, 0.0, gain]])
             H[2] = np.array([[bias_gain]])
-        return np.array([wrap_angle(theta_j - theta_i + b * bias_gain - turn_rad)])
+            H[3] = np.array([[SCALE_UNIT * turn]])
+        return np.array([wrap_angle(gain * turn + b * bias_gain - reading_rad)])
 
-    return gtsam.CustomFactor(noise, gtsam.KeyVector([key_i, key_j, key_bias]), error)
+    return gtsam.CustomFactor(noise, gtsam.KeyVector([key_i, key_j, key_bias, key_scale]), error)
 
 
 def _std(value, what: str) -> float:

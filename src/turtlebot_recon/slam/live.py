@@ -205,10 +205,10 @@ class LiveSlam(_Session):
         st = self.core.stats()
         return (f"{st['keyframes']} keyframes ({st['matched']} matched, {st['degenerate']} degenerate), loop "
                 f"closures {st['loop_accepted']} of {st['loop_tried']} tried accepted, iSAM2 "
-                f"{st.get('isam2_ms_median', float('nan')):.1f} ms median, gyro scale error "
-                f"{100 * st['gyro_scale']:+.2f} % (std {100 * st['gyro_scale_std']:.2f} %)"
-                + (f", bias {1e3 * st['gyro_bias_radps']:+.3f} mrad/s (std {1e3 * st['gyro_bias_std_radps']:.3f})"
-                   if "gyro_bias_radps" in st else ""))
+                f"{st.get('isam2_ms_median', float('nan')):.1f} ms median"
+                + (f", gyro scale error {100 * st['gyro_scale']:+.2f} % (std {100 * st['gyro_scale_std']:.2f} %), "
+                   f"bias {1e3 * st['gyro_bias_radps']:+.3f} mrad/s (std {1e3 * st['gyro_bias_std_radps']:.3f})"
+                   if "gyro_scale" in st else ""))
 
     def save(self, out_dir: str, why: str) -> str:
         """graph.g2o, trajectory.tum (keyframes, optimised) and odometry.tum into ``out_dir``;

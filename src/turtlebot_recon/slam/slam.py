@@ -13,13 +13,14 @@ the one before it by two factors:
   estimates), with the matcher's Hessian covariance; along a corridor's degenerate direction
   the matcher inflates it, so odometry takes over there;
 * with a gyro (seed 000 names the IMU as its missing piece), its yaw rate integrated over the
-  step, in a yaw-rate factor on the two poses and the gyro's bias (``B(m)``, a variable at a
+  step, in a yaw-rate factor on the two poses, the gyro's bias (``B(m)``, a variable at a
   keyframe every ``gyro_bias_period_s``, a random walk from each to the next, the steps between
-  sharing the newest: ``graph.add_bias``, ``add_yaw_rate``). The
-  gyro integrates (1 + k) (theta_j - theta_i) + b dt; its scale error k is fitted outside the
-  graph to the matched turns (``GyroScale``), its bias b in it, where every step shares it: a
-  bias left to each step's variance leaked into the heading (+0.05 rad over 2,500 s in the
-  simulator), and fitted outside the graph it was too weakly observed to subtract. The gyro
+  sharing the newest: ``graph.add_bias``, ``add_yaw_rate``) and its scale error (``K(0)``, one
+  for the run: ``graph.add_gyro_scale``). The gyro integrates (1 + k) (theta_j - theta_i) + b dt,
+  and every step shares k and b: a bias left to each step's variance leaked into the heading
+  (+0.05 rad over 2,500 s in the simulator), fitted outside the graph it was too weakly observed
+  to subtract, and a scale fitted outside the graph left the turns made before it was known
+  uncorrected (a house's map turned 2-5 mrad in its first minute). The gyro
   enters the graph there only: the odometry factor keeps the wheels' heading and variance, and
   the gyro's turn fused into the wheels' step (inverse-variance weights, the bias estimate
   subtracted) is only the prediction that seeds the scan match and gates it.
@@ -105,7 +106,7 @@ class SlamSettings:
                                           # drive's p99 14 -> 47 ms CPU; every 60 s, 17 ms, the same
                                           # heading error (the bias walks ~8e-6 rad/s in 60 s); the
                                           # office drive: 7 -> 3.5 ms per keyframe, 30 ms every 60 s
-    gyro_scale_std: float = 0.02          # prior std of the scale factor error (fraction; GyroScale)
+    gyro_scale_std: float = 0.02          # prior std of the scale factor error (fraction), in the graph
     match_min_score: float = 0.5          # scan-match factors below this score are left out
     match_gate_chi2: float = 16.3         # ... and those this far (Mahalanobis^2 over both
                                           # covariances) from odometry's prediction: a corridor's
@@ -134,9 +135,8 @@ class SlamSettings:
                 "must be <= loop_radius_max_m")
         for key in ("match_min_score", "loop_min_score"):
             require(0.0 <= getattr(self, key) <= 1.0, src, key, "must be in [0, 1]")
-        require(self.gyro_noise_std_radps >= 0 and self.gyro_scale_std >= 0, src,
-                "gyro_noise_std_radps", "gyro noise figures must be >= 0")
-        positive(src, self, "gyro_bias_std_radps", "gyro_bias_walk_radps_per_sqrt_s")
+        positive(src, self, "gyro_noise_std_radps", "gyro_bias_std_radps", "gyro_bias_walk_radps_per_sqrt_s",
+                 "gyro_scale_std")
         require(self.gyro_bias_period_s >= 0, src, "gyro_bias_period_s", "must be >= 0 (0: one per keyframe)")
 
 
@@ -203,43 +203,6 @@ def timing_covariance(delta, velocity_start, velocity_end, timing_std_s: float) 
     return timing_std_s ** 2 * (np.outer(a, a) + np.outer(b, b))
 
 
-class GyroScale:
-    """The gyro's scale factor error k (it reports (1 + k) times the true turn), fitted online to
-    the turns the scan matcher measures between keyframes: the recursive least-squares estimate
-    of one constant under the prior N(0, ``prior_std``^2). No TurtleBot driver calibrates the
-    scale (the MPU-9250's is specified within +-3 %), and its error is the same in every turn:
-    left in, the graph's independent odometry factors turn the whole map slowly (~0.01 rad over
-    a house). A turn whose residual lies beyond 3 sigma of the prediction is not used."""
-
-    def __init__(self, prior_std: float):
-        self.info = 1.0 / prior_std ** 2 if prior_std > 0 else math.inf   # 1 / var(k)
-        self.eta = 0.0                                                     # info * k
-        self.used = 0
-
-    @property
-    def value(self) -> float:
-        return self.eta / self.info
-
-    @property
-    def std(self) -> float:
-        return 1.0 / math.sqrt(self.info)
-
-    def correct(self, gyro_turn: float) -> float:
-        """The true turn (rad) behind the gyro's ``gyro_turn``, as far as the estimate goes."""
-        return gyro_turn / (1.0 + self.value)
-
-    def update(self, gyro_turn: float, matched_turn: float, var: float) -> bool:
-        """One keyframe: the gyro's turn and the matched one (rad) with the variance of their
-        difference apart from k (rad^2). Whether it was used."""
-        r = gyro_turn - matched_turn
-        if not var > 0.0 or (r - self.value * matched_turn) ** 2 > 9.0 * (var + matched_turn ** 2 / self.info):
-            return False
-        self.info += matched_turn ** 2 / var
-        self.eta += matched_turn * r / var
-        self.used += 1
-        return True
-
-
 class OdometryWatch:
     """Whether each scan's odometry pose jumped from the previous scan's: a step faster than
     MAX_PLAUSIBLE_SPEED_MPS / MAX_PLAUSIBLE_TURN_RADPS over the time since the previous pose was
@@ -291,7 +254,6 @@ class Slam:
         self.keyframes: list[Keyframe] = []
         self.estimates = np.zeros((0, 3))
         self.gyro: list[tuple] = []             # (stamp, yaw rate) since the last keyframe
-        self.gyro_scale = GyroScale(settings.gyro_scale_std)
         self.last_odom = None                   # (stamp, pose) of the last scan seen
         self.odom_watch = OdometryWatch()
         self._jump_var: Optional[np.ndarray] = None   # variance added to the step across a jump
@@ -449,10 +411,11 @@ class Slam:
                 out[f"{name}_median"] = float(np.median(v))
                 out[f"{name}_p99"] = float(np.percentile(v, 99))
                 out[f"{name}_max"] = float(v.max())
-        out["gyro_scale"], out["gyro_scale_std"] = self.gyro_scale.value, self.gyro_scale.std
-        last = self.graph.last_bias() if self.graph is not None else None
-        if last is not None:
+        scale = self.graph.gyro_scale() if self.graph is not None else None
+        if scale is not None:    # the gyro's variables, once through iSAM2
+            last = self.graph.last_bias()
             out["gyro_bias_radps"], out["gyro_bias_std_radps"] = self.graph.bias(last), self.graph.bias_std(last)
+            out["gyro_scale"], out["gyro_scale_std"] = scale
         if self.graph is not None:     # tag landmarks: in the graph, sightings used, refused by the gate
             lm = self.graph.landmark_stats()
             out.update(landmarks=lm["landmarks"], landmark_sightings=lm["sightings"],
@@ -495,16 +458,13 @@ class Slam:
         return GyroStep(raw, span, self.s.gyro_noise_std_radps ** 2 * period * span)
 
     def _gyro_turn(self, gyro: GyroStep) -> tuple:
-        """The true turn the gyro's step measures, its bias (the graph's estimate at the last
-        keyframe) taken out and divided by 1 + its scale error, and that turn's variance from the
-        white noise and what is left of the scale's share."""
-        turn = self.gyro_scale.correct(gyro.raw_rad - self._bias() * gyro.span_s)
-        return turn, gyro.var_white_rad2 + (self.gyro_scale.std * turn) ** 2
-
-    def _bias(self) -> float:
-        """The graph's estimate of the gyro's bias, its newest variable's (rad/s); 0 before the first."""
-        m = self.graph.last_bias()
-        return self.graph.bias(m) if m is not None else 0.0
+        """The true turn the gyro's step measures, the graph's estimates of its bias (the newest
+        variable's) taken out and divided by 1 + its scale error, and that turn's variance from
+        the white noise and the scale's uncertainty (its prior's before the graph has it)."""
+        m, scale = self.graph.last_bias(), self.graph.gyro_scale()
+        k, k_std = scale if scale is not None else (0.0, self.s.gyro_scale_std)
+        turn = (gyro.raw_rad - (self.graph.bias(m) * gyro.span_s if m is not None else 0.0)) / (1.0 + k)
+        return turn, gyro.var_white_rad2 + (k_std * turn) ** 2
 
     def _predict(self, delta: np.ndarray, cov: np.ndarray, gyro: Optional[GyroStep]) -> tuple:
         """The step predicted from the wheels and the gyro (the scan match's guess and gate): the
@@ -536,11 +496,10 @@ class Slam:
             if gyro is None:
                 return
             self.graph.add_bias(i, prior_std=self.s.gyro_bias_std_radps)
+            self.graph.add_gyro_scale(self.s.gyro_scale_std)
             m = i
         if gyro is not None:
-            _, var_turn = self._gyro_turn(gyro)
-            scale = 1.0 + self.gyro_scale.value
-            self.graph.add_yaw_rate(i, j, gyro.raw_rad / scale, gyro.span_s, math.sqrt(var_turn), scale, bias_key=m)
+            self.graph.add_yaw_rate(i, j, gyro.raw_rad, gyro.span_s, math.sqrt(gyro.var_white_rad2), bias_key=m)
         age = stamp_s - self.keyframes[m].stamp_s
         if age >= self.s.gyro_bias_period_s:
             walk = self.s.gyro_bias_walk_radps_per_sqrt_s * math.sqrt(max(age, 1e-3))
@@ -609,10 +568,6 @@ class Slam:
                 factors.append((prev, between(self.estimates[prev], match.pose), match.covariance))
                 self.counts["matched"] += 1
                 self.counts["degenerate"] += int(match.degenerate)
-                if gyro is not None and not jumped:
-                    self.gyro_scale.update(gyro.raw_rad - self._bias() * gyro.span_s,
-                                           wrap_angle(match.pose[2] - self.estimates[prev][2]),
-                                           gyro.var_white_rad2 + match.covariance[2, 2])
                 guess = match.pose
             else:
                 self.counts["match_inconsistent"] += 1
