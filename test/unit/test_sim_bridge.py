@@ -5,7 +5,8 @@ import math
 import pytest
 
 from turtlebot_recon.robot import load_robot
-from turtlebot_recon.sim.bridge import CommandSync, CycleSync, Pacer, WallShares, footprint_outline, relative_to_start
+from turtlebot_recon.sim.bridge import (CommandSync, CycleSync, Pacer, StartupPace, WallShares, footprint_outline,
+                                         relative_to_start)
 
 
 def test_pacer_holds_sim_time_to_rtf_times_wall_time():
@@ -126,3 +127,18 @@ def test_every_sim_time_timer_period_is_whole_clock_periods():
     for name, period in periods.items():
         ticks = period / clock_s
         assert ticks == pytest.approx(round(ticks)) and round(ticks) >= 1, f"{name}: {period} s"
+
+
+def test_rtf_0_runs_in_real_time_until_the_first_command_or_its_wall_limit():
+    """Standing while the stack starts should cost the sim time it would on a robot: ~45 s of
+    sim time at full speed drifted the odometry's heading, and SLAM anchored the map there."""
+    pace = StartupPace(rtf=0.0, max_wall_s=20.0, sim_s=0.0, wall_s=100.0)
+    assert pace.sleep_s(3.0, 101.0) == 2.0              # 3 s of sim time after 1 s of wall time
+    pace.commanded()
+    assert pace.sleep_s(40.0, 102.0) == 0.0             # the base was commanded: full speed
+    idle = StartupPace(rtf=0.0, max_wall_s=20.0, sim_s=0.0, wall_s=100.0)
+    assert idle.sleep_s(19.5, 119.0) == 0.5
+    assert idle.sleep_s(30.0, 120.5) == 0.0 and not idle.on   # never commanded: full speed after 20 s
+    assert idle.sleep_s(60.0, 121.0) == 0.0
+    assert not StartupPace(rtf=2.0, max_wall_s=20.0, sim_s=0.0, wall_s=0.0).on   # rtf > 0 paces itself
+    assert not StartupPace(rtf=0.0, max_wall_s=0.0, sim_s=0.0, wall_s=0.0).on

@@ -32,6 +32,29 @@ class Pacer:
         return max(ahead, 0.0)
 
 
+class StartupPace:
+    """rtf 0: real time until the base's first command, for at most ``max_wall_s`` of wall time.
+    The stack starts in wall time (a few seconds); stepped as fast as possible meanwhile, ~45 s
+    of sim time passed before the explorer's first command, the robot standing and its
+    odometry's heading drifting with the gyro's bias, and SLAM anchored the map at the heading
+    its first keyframe found (a house's whole map turned by 2-4 mrad). A run that never
+    commands the base steps at full speed once ``max_wall_s`` has passed."""
+
+    def __init__(self, rtf: float, max_wall_s: float, sim_s: float, wall_s: float):
+        self.on = rtf <= 0 and max_wall_s > 0
+        self._pacer = Pacer(1.0, sim_s, wall_s)
+        self._until_s = wall_s + max_wall_s
+
+    def commanded(self) -> None:
+        self.on = False
+
+    def sleep_s(self, sim_s: float, wall_s: float) -> float:
+        """Wall seconds to sleep so that sim time runs no faster than wall time while it is on."""
+        if self.on and wall_s >= self._until_s:
+            self.on = False
+        return self._pacer.sleep_s(sim_s, wall_s) if self.on else 0.0
+
+
 class CommandSync:
     """rtf 0: the simulation outruns a controller starved of CPU, and the base would drive on
     its last command for up to cmd_timeout_s. While the base moves, once the last command is

@@ -70,6 +70,9 @@ class SimSettings:
                                          # node's next cycle is due (sim/next_cycle: the explorer's)
                                          # until it has run, so a cycle costs no sim time
     cycle_sync_wait_s: float = 5.0       # ... waiting at most this long (wall s); 0 = never wait
+    startup_realtime_s: float = 20.0     # rtf 0 only: real time until the first /cmd_vel, for at
+                                         # most this long (wall s): the stack's start-up costs the
+                                         # sim time it would on a robot; 0 = full speed from the start
     odom_slip_std_sqrt_m: float = 0.0    # wheel slip: std of each wheel's travel error per sqrt(m)
     odom_heading: str = "gyro"           # with slip: odometry's heading from the gyro (what the
                                          # TurtleBot3's OpenCR firmware and kobuki_node's default
@@ -95,6 +98,7 @@ class SimSettings:
         require(self.cmd_sync_wait_s >= 0.0, src, "cmd_sync_wait_s", "must be >= 0")
         require(self.cycle_sync_slack_s >= 0.0, src, "cycle_sync_slack_s", "must be >= 0")
         require(self.cycle_sync_wait_s >= 0.0, src, "cycle_sync_wait_s", "must be >= 0 (0 = never wait)")
+        require(self.startup_realtime_s >= 0.0, src, "startup_realtime_s", "must be >= 0")
         require(self.rtf >= 0.0, src, "rtf", "must be >= 0 (0 = as fast as possible)")
         require(self.odom_slip_std_sqrt_m >= 0.0, src, "odom_slip_std_sqrt_m", "must be >= 0")
         require(self.odom_heading in ("gyro", "wheels"), src, "odom_heading",
