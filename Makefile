@@ -35,10 +35,10 @@ help:
 	@echo "make slam-log LOG=FILE OUTPUT=DIR   SLAM over a rosbag or CARMEN log: trajectory.tum, odometry.tum, map, graph.g2o"
 	@echo "                 (MAP=map.yaml [INITIAL_POSE='x y yaw']: track the log in that saved map instead)"
 	@echo "make slam-eval TRAJ=FILE GT=FILE [RELATIONS=FILE] [ALIGN=1]   ATE and the relations metric (TUM files)"
-	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with/without SLAM, tag missions"
+	@echo "make bench-slam  SLAM: recorded drives at 4 drifts, city10000, explorations with SLAM, tag missions"
 	@echo "                 with SLAM, tags landmarks in the graph or not -> output/bench/slam.json"
-	@echo "                 (LIVE=0 offline parts only, SEEDS=N SLAM explorations per world (3), TAG_SEEDS=N tag missions (1),"
-	@echo "                 RESUME=1, DRIVE_S=sim s per recorded drive)"
+	@echo "                 (LIVE=0 offline parts only, SEEDS=N SLAM explorations per world (3), TAG_WORLDS=a,b (house),"
+	@echo "                 TAG_SEEDS=N tag missions per world (1), RESUME=1, DRIVE_S=sim s per recorded drive)"
 	@echo "make bench-sim   simulator benchmark -> output/bench/sim.json"
 	@echo "make bench-map   mapping/planning core benchmark -> output/bench/map.json"
 	@echo "make bench-control  seed 000's noisy unicycle and racetrack (MPPI vs Tube MPPI) and the controllers'"
@@ -145,10 +145,11 @@ bench-tags: build
 	  $(if $(SEEDS),--seeds $(SEEDS)) $(if $(RESUME),--resume)
 
 # Recorded drives at four drifts (offline SLAM vs odometry), city10000, then the full
-# explorations with and without SLAM at the default drift (LIVE=0: the offline parts only).
+# explorations with SLAM at the default drift (SEEDS per world, 3) and the tag missions
+# (TAG_WORLDS, house; TAG_SEEDS, 1) (LIVE=0: the offline parts only).
 bench-slam: build
 	@$(ENV) python test/benchmarks/bench_slam.py $(if $(filter 0,$(LIVE)),,--live) $(if $(SEEDS),--seeds $(SEEDS)) \
-	  $(if $(TAG_SEEDS),--tag-seeds $(TAG_SEEDS)) \
+	  $(if $(TAG_WORLDS),--tag-worlds $(TAG_WORLDS)) $(if $(TAG_SEEDS),--tag-seeds $(TAG_SEEDS)) \
 	  $(if $(RESUME),--resume) $(if $(DRIVE_S),--drive-s $(DRIVE_S))
 
 # The bench's own defaults (recon and the oracle, the shipped, real and held-out worlds, 3 seeds

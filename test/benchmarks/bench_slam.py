@@ -14,15 +14,17 @@
    against the iSAM2 reference shipped with the wheel.
 3. **Full explorations** (``--live``; what `make bench-slam` runs), two at a time:
    `explore_sim.launch` on the three worlds with the burger at the default drift, with SLAM
-   (``slam:=true``, ``--seeds`` per world, 3) and, seed 0 only, odometry alone
-   (``slam:=false``), as `make bench-explore` runs them (runs in output/bench/slam_runs_slam/
-   and slam_runs_odom/): the evaluator's ATE (the live estimate at 1 Hz), the keyframe ATE,
-   map precision, coverage, collisions and the full stack's real-time factor. Then the
-   waffle_pi's tag missions (``mission:=tags``) with SLAM on house and office (``--tag-seeds``,
-   1), the tags landmarks in SLAM's graph (``tag_landmarks:=true``, the default with SLAM: /tags
-   at the graph's positions) and not (the tracker's own estimates) (runs in
-   output/bench/slam_runs_tags_landmarks/ and slam_runs_tags_no_landmarks/): the tag errors
-   with and without landmarks and the graph's landmarks (slam/landmarks) against the truth.
+   (``slam:=true``, ``--seeds`` per world, 3), as `make bench-explore` runs them (runs in
+   output/bench/slam_runs_slam/): the evaluator's ATE (the live estimate at 1 Hz) and the
+   odometry's ATE on the same samples of the same run, the keyframe ATE, map precision,
+   coverage, collisions and the full stack's real-time factor. (Exploration with exact
+   odometry, the reference, is `make bench-explore SLAM=false`.) Then the waffle_pi's tag
+   missions (``mission:=tags``) with SLAM (``--tag-worlds``, house; ``--tag-seeds``, 1: office
+   adds ~20 min on 2 cores), the tags landmarks in SLAM's graph (``tag_landmarks:=true``, the
+   default with SLAM: /tags at the graph's positions) and not (the tracker's own estimates)
+   (runs in output/bench/slam_runs_tags_landmarks/ and slam_runs_tags_no_landmarks/): the tag
+   errors with and without landmarks and the graph's landmarks (slam/landmarks) against the
+   truth.
 
 Keys (issue 17): ``ate_m_default_max`` (live SLAM, default drift, worst run; issue 31's
 ``ate_m_live_max``), ``ate_m_live_median_max`` (each world's median over its seeds, the worst),
@@ -62,7 +64,7 @@ WORLDS = ("house", "office", "maze")
 ROBOT = "turtlebot3_burger"
 DRIFTS = {"low": 0.005, "default": 0.01, "3x": 0.03, "12pct": 0.17}
 SWEEP = "slam_runs"
-TAG_WORLDS = ("house", "office")     # the tags missions with SLAM (issue 31 item 6)
+TAG_WORLDS = ("house",)             # the tags missions with SLAM by default (issue 31 item 6)
 TAG_ROBOT = "turtlebot3_waffle_pi"   # the TurtleBot 3 with a camera
 
 
@@ -173,22 +175,21 @@ def explorations(modes: dict, worlds, robot: str, mission: str, seeds: int, resu
     return out
 
 
-def live(seeds: int, resume: bool, budget: float, tag_seeds: int = 1, min_rtf: float = 0.0) -> dict:
-    """The burger's map explorations with SLAM (``seeds`` per world) and, as the reference,
-    odometry alone (seed 0); then the waffle_pi's tag missions with SLAM (TAG_WORLDS,
-    ``tag_seeds``), its tags landmarks in the graph and not; all two at a time."""
+def live(seeds: int, resume: bool, budget: float, tag_worlds=TAG_WORLDS, tag_seeds: int = 1,
+         min_rtf: float = 0.0) -> dict:
+    """The burger's map explorations with SLAM (``seeds`` per world), then the waffle_pi's tag
+    missions with SLAM (``tag_worlds``, ``tag_seeds``), its tags landmarks in the graph and
+    not; all two at a time."""
     runs = explorations({"slam": "slam:=true odom_slip:=0.01"}, WORLDS, ROBOT, "map", seeds, resume, budget, 2,
                         min_rtf)
-    runs.update(explorations({"odom": "slam:=false odom_slip:=0.01"}, WORLDS, ROBOT, "map", 1, resume, budget, 2,
-                             min_rtf))
-    runs.update(tag_missions(tag_seeds, resume, budget, min_rtf))
+    runs.update(tag_missions(tag_worlds, tag_seeds, resume, budget, min_rtf))
     return runs
 
 
-def tag_missions(seeds: int, resume: bool, budget: float, min_rtf: float = 0.0) -> dict:
+def tag_missions(worlds, seeds: int, resume: bool, budget: float, min_rtf: float = 0.0) -> dict:
     return explorations({"tags_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=true",
                          "tags_no_landmarks": "slam:=true odom_slip:=0.01 tag_landmarks:=false"},
-                        TAG_WORLDS, TAG_ROBOT, "tags", seeds, resume, budget, 2, min_rtf)
+                        worlds, TAG_ROBOT, "tags", seeds, resume, budget, 2, min_rtf)
 
 
 def summary(rec: dict, city: dict, runs: dict) -> dict:
@@ -240,7 +241,6 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
         fig["ate_m_tags_slam_no_landmarks_max"] = max((v["ate_m"] for v in tags_off if v.get("ate_m") is not None),
                                                       default=None)
     slam = [v for k, v in runs.items() if k.startswith("slam/") and isinstance(v, dict)]
-    odom = [v for k, v in runs.items() if k.startswith("odom/") and isinstance(v, dict)]
     if slam:
         fig["ate_m_default_max"] = max(v["ate_m"] for v in slam if v["ate_m"] is not None)
         # issue 31: each world's median over its seeds, the worst world; and the worst run
@@ -258,19 +258,8 @@ def summary(rec: dict, city: dict, runs: dict) -> dict:
         fig["coverage_aligned_min_slam"] = min(aligned) if aligned else None
         fig["collisions_slam"] = sum(v["collisions"] for v in slam)
         fig["full_stack_rtf_slam"] = statistics.median(v["rtf"] for v in slam)
-    if slam:
         # the odometry's ATE on the same samples of the same run (the evaluator's ate_odometry_m)
         fig["ate_ratio_odom_over_slam_min"] = min(v["ate_odometry_m"] / v["ate_m"] for v in slam)
-    if slam and odom:
-        # against the twin run with SLAM off (the map drawn in odom: exploration itself suffers)
-        ratios = []
-        for key, v in runs.items():
-            twin = runs.get(key.replace("slam/", "odom/", 1)) if key.startswith("slam/") else None
-            if isinstance(v, dict) and isinstance(twin, dict) and v["ate_m"] and twin["ate_m"]:
-                ratios.append(twin["ate_m"] / v["ate_m"])
-        fig["ate_ratio_odom_run_over_slam_run_min"] = min(ratios) if ratios else None
-        fig["coverage_min_odom"] = min(v["coverage_final"] for v in odom)
-        fig["full_stack_rtf_odom"] = statistics.median(v["rtf"] for v in odom)
     return fig
 
 
@@ -278,8 +267,9 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--drive-s", type=float, default=600.0, help="sim seconds of each recorded drive")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--live", action="store_true", help="also the full explorations (odometry alone vs SLAM)")
+    p.add_argument("--live", action="store_true", help="also the full explorations with SLAM")
     p.add_argument("--seeds", type=int, default=3, help="seeds per world of the burger's explorations with SLAM")
+    p.add_argument("--tag-worlds", default=",".join(TAG_WORLDS), help="worlds of the tag missions (comma-separated)")
     p.add_argument("--tag-seeds", type=int, default=1, help="seeds per world of the tag missions")
     p.add_argument("--budget", type=float, default=0.0, help="sim s of each exploration (0: bench-explore's rule)")
     p.add_argument("--resume", action="store_true", help="reuse finished explorations")
@@ -292,7 +282,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     t0 = time.monotonic()
     if a.tags_only:
-        runs = tag_missions(a.tag_seeds, a.resume, a.budget, a.min_rtf)
+        runs = tag_missions(a.tag_worlds.split(","), a.tag_seeds, a.resume, a.budget, a.min_rtf)
         fig = summary({}, {}, runs)
         fig.update(parts=["tag missions with SLAM (--tags-only)"], runs=runs, wall_s=time.monotonic() - t0)
         write("slam", fig)
@@ -309,7 +299,7 @@ def main(argv=None) -> int:
         city = run_city10000()
     print(f"[bench-slam] city10000: median {city['city10000_ms_median']:.2f} ms, max error "
           f"{city['city10000_max_error_m']:.3f} m", flush=True)
-    runs = live(a.seeds, a.resume, a.budget, a.tag_seeds, a.min_rtf) if a.live else {}
+    runs = live(a.seeds, a.resume, a.budget, a.tag_worlds.split(","), a.tag_seeds, a.min_rtf) if a.live else {}
     fig = summary(rec, city, runs)
     fig["recorded"] = rec
     fig["runs"] = runs
