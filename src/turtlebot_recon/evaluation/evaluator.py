@@ -230,14 +230,17 @@ def tag_search_s(log: RunLog, end_s: float, tags: Optional[list]) -> Optional[fl
 def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, coverage: CoverageTracker,
                log: RunLog, end_s: float, wall_time_s: float, reason: str, strategy: Optional[str],
                final_map: Optional[FinalMap] = None, tags: Optional[list] = None,
-               landmarks: Optional[list] = None) -> dict:
+               landmarks: Optional[list] = None, covered_map: Optional[FinalMap] = None) -> dict:
     """report.json's content: DESIGN §6 keys, then extras. ``tags``: the confirmed tags at the
     end, (family, id, x, y, z) in the map frame; None when no tag tracker ran (tag keys null,
     and the extra ``tag_search_s``: sim s from the explorer's "tags" phase to the end, null too
     without that phase). ``landmarks``: SLAM's tags in its graph at the end, same form; None
     without (``landmark_report``'s extra keys null).
     ``end_s``: the sim time at the end (s, ROS clock); ``wall_time_s``: the run's wall time;
-    ``coverage`` already holds its sample of ``final_map`` (None: no map, precision unknown).
+    ``coverage`` already holds its sample of ``covered_map`` (default ``final_map``): the map its
+    other samples read, the live /map, whose values 26..64 (a wall face as often hit as missed)
+    a saved map_server file writes as unknown; its seen, occupied and aligned shares are of that
+    map too. Map precision is of ``final_map`` (None: no map, precision unknown).
     Extra keys ``time_standing_s`` and ``stops`` (``metrics.standing``: true ground speed under
     0.05 m/s, stops of 0.5 s or more) count over the exploration: from the explorer's start to
     the time to 99 %, or to the end of the run where 99 % was never reached. A reference run
@@ -251,6 +254,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
     if final_map is not None:
         m = final_map
         p = map_precision(m.occupancy, m.resolution, m.origin, world, world.start)
+        m = final_map if covered_map is None else covered_map
         known, occupied = coverage.seen(m.occupancy, m.resolution, m.origin)
         report.update(map_precision_occupied=p["map_precision_occupied"], map_precision_free=p["map_precision_free"],
                       coverage_seen_final=known, F_marked_occupied=occupied)
