@@ -252,8 +252,7 @@ def run_report(settings: EvaluatorSettings, world: World, robot: RobotSpec, cove
     report = {"world": world.name, "robot": robot.name, "seed": settings.seed, "strategy": strategy}
     report.update(coverage.summary())
     if final_map is not None:
-        m = final_map
-        p = map_precision(m.occupancy, m.resolution, m.origin, world, world.start)
+        p = map_precision(final_map.occupancy, final_map.resolution, final_map.origin, world, world.start)
         m = final_map if covered_map is None else covered_map
         known, occupied = coverage.seen(m.occupancy, m.resolution, m.origin)
         report.update(map_precision_occupied=p["map_precision_occupied"], map_precision_free=p["map_precision_free"],
