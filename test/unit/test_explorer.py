@@ -308,13 +308,14 @@ def test_an_arrival_that_does_not_reveal_the_frontier_sends_the_next_viewpoint()
     assert a.cycled and again.xy == first.xy
     run.tick()
     a, _ = run.tick(events=[NavEvent(again.seq, "succeeded")])
-    # the map did not change: the south face, in view of (29, 27), is given up; the north
-    # face, which the slab hid, gets its viewpoint in E (cols >= 47), looking along the
-    # strip (test_frontiers: (36, 53) on the burger's costmap)
+    # the map did not change: the south face, in view of (29, 27) and of the start 1 m off,
+    # is no frontier any more (looked at from two places: Looks); the north face, which the
+    # slab hid, gets its viewpoint in E (cols >= 47), looking along the strip
+    # (test_frontiers: (36, 53) on the burger's costmap)
     assert a.cycled
     (nxt,) = [x for x in a.actions if isinstance(x, SendGoal)]
-    south, north = run.ex.frontiers
-    assert not south.reachable and north.reachable and run.ex.goal_available
+    (north,) = run.ex.frontiers
+    assert (north.cells[:, 0] == 32).all() and north.reachable and run.ex.goal_available
     assert nxt.xy == approx_xy(north.goal) and nxt.seq == again.seq + 1
     assert north.goal_cell[1] >= 47 and test_frontiers.sees(run.grid.data, north.goal_cell,
                                                             north.cells)
@@ -340,6 +341,35 @@ def test_a_frontier_no_reachable_cell_sees_is_given_up_and_the_run_ends():
     assert not f.reachable and run.ex.goal_available is False
     assert b.done == "no reachable frontier for 2 explorer cycles"
     assert run.lines("explorer: 1 frontiers, 0 seen from a reachable viewpoint, none usable")
+
+
+def test_a_pocket_in_a_wall_face_the_robot_looked_at_while_passing_ends_the_run():
+    # The fully known strip with a thick wall north (rows 30..39) whose face holds 3 unknown
+    # cells (row 30, cols 36..38): a frontier no ray ever reveals (a wall face the map drew a
+    # cell off). The robot passes below it, 0.5 m off, along row 20: two looks 0.25 m apart
+    # and it is no frontier any more; nothing else is left, and the run ends.
+    grid = strip(left_unknown=False, right_unknown=False)
+    grid.data[30:, :] = 100
+    grid.data[30, 36:39] = UNKNOWN
+    run = Run(grid=grid, supervisor=SupervisorSettings(spin_angle_deg=0.0, finish_empty_cycles=2,
+                                                       return_home=False))
+    goal = run.until_goal()
+    (f,) = run.ex.frontiers
+    assert f.reachable and goal.kind == "explore" and run.ex.goal_available
+    done, cycles = None, []
+    for x in (1.525, 1.775, 2.025, 2.275, 2.525):              # 1.2 s at each: a cycle or two
+        run.pose = (x, 1.025, 0.0)
+        for _ in range(12):
+            a, b = run.tick()
+            done = done or b.done
+            if a.cycled:
+                cycles.append((x, len(run.ex.frontiers)))
+    # a place is cast at the cycle after it: 1.525 at the first cycle there (one look; the
+    # pocket stays), 1.775 at the first cycle at 2.025 (the second look: gone from then on)
+    assert {x for x, n in cycles if n == 1} == {1.525, 1.775}
+    assert min(x for x, n in cycles if n == 0) == 2.025       # (the run ends before 2.525)
+    assert run.ex.frontiers == [] and run.ex.goal_available is False
+    assert done == "no reachable frontier for 2 explorer cycles"
 
 
 # ------------------------------------------------------------------- supervisor commands

@@ -19,6 +19,7 @@ from turtlebot_recon.config import ConfigError, from_dict
 from turtlebot_recon.exploration import (Frontier, FrontierSettings, cluster, detect,
                                          find_frontier_cells)
 from turtlebot_recon.exploration.goals import GoalBook
+from turtlebot_recon.exploration.viewpoints import Looks
 from turtlebot_recon.mapping.map_io import FREE_THRESH
 from turtlebot_recon.geometry import cell_to_xy
 from turtlebot_recon.planning import CostmapSettings, PlannerSettings, dijkstra, make_costmap, nearest_accessible
@@ -125,6 +126,34 @@ def test_walls_and_fully_known_maps_have_no_frontier():
     occ[:, 3:] = UNKNOWN
     occ[:, 3] = WALL      # unknown cells behind a wall touch only the wall
     assert not find_frontier_cells(occ, 25).any()
+
+
+def test_a_slit_narrower_than_the_opening_in_a_wall_line_shows_no_frontier(burger_costmap_settings):
+    # A room (free rows 3..19) under a wall 2 cells thick (rows 20, 21), unknown beyond. The
+    # wall has a slit 1 cell wide (col 10: a face cell that grazing rays cleared), one 2
+    # cells wide (cols 20, 21) and one 3 cells wide (cols 30..32), and a stray free cell
+    # lies in the unknown at (25, 40) beside the wall's far side.
+    occ = np.full((30, 50), UNKNOWN, np.int8)
+    occ[2:22, 2:48] = WALL
+    occ[3:20, 3:47] = FREE
+    occ[20:22, 10] = FREE
+    occ[20:22, 20:22] = FREE
+    occ[20:22, 30:33] = FREE
+    occ[22, 40] = WALL
+    occ[23, 40] = FREE
+    cols = lambda mask: sorted({c for r, c in np.argwhere(mask).tolist()})
+    # seed 004's rule: a frontier behind each slit and around the stray cell
+    assert cols(find_frontier_cells(occ, 25)) == [9, 10, 11, 19, 20, 21, 22, 29, 30, 31, 32, 33,
+                                                   39, 40, 41]
+    # only free cells in an all-free 3 x 3 square count: the 3-cell slit keeps its frontier
+    assert cols(find_frontier_cells(occ, 25, opening_cells=3)) == [29, 30, 31, 32, 33]
+    assert FrontierSettings().min_opening_cells == 3
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    (f,) = detect(occ, RES, (0.0, 0.0), costmap, (10, 25), FrontierSettings())
+    assert cols(np.isin(np.arange(occ.size).reshape(occ.shape),
+                        np.ravel_multi_index(f.cells.T, occ.shape))) == [29, 30, 31, 32, 33]
+    assert len(detect(occ, RES, (0.0, 0.0), costmap, (10, 25),
+                      FrontierSettings(min_opening_cells=1))) == 4
 
 
 # ---------------------------------------------------------------- clustering
@@ -503,6 +532,73 @@ def test_viewpoints_run_out(burger_costmap_settings, max_cost):
     assert goals == {128: [(24, 29), (23, 37)], 252: [(28, 29)]}[max_cost]
 
 
+def pocket_hall():
+    """40 x 100 cells: a hall (free rows 3..29, cols 3..96) inside thick walls (rows 30..39
+    wall), unknown below row 2. Two frontiers on the hall's north side: a pocket of 3
+    unknown cells in the wall's face (row 30, cols 10..12), walled on every other side (a
+    wall face the map drew a cell off: no ray of the lidar ever reveals it), and the same
+    pocket at cols 85..87, 3.7 m east."""
+    occ = np.full((40, 100), UNKNOWN, np.int8)
+    occ[2:, :] = WALL
+    occ[3:30, 3:97] = FREE
+    occ[30, 10:13] = UNKNOWN
+    occ[30, 85:88] = UNKNOWN
+    return occ
+
+
+def look_from(looks, occ, origin, *cells):
+    """``Looks.look`` from the centre of each cell in turn (the last stays pending)."""
+    for cell in cells:
+        looks.look(occ, find_frontier_cells(occ), RES, origin, cell_to_xy(cell, RES, origin))
+
+
+def test_a_frontier_the_lidar_looked_at_from_two_places_and_did_not_reveal_is_spent(
+        burger_costmap_settings):
+    occ = pocket_hall()
+    costmap = make_costmap(occ, RES, burger_costmap_settings)
+    s = FrontierSettings()
+    assert (s.look_range_m, s.look_spacing_m, s.looks_to_spend) == (2.5, 0.25, 2)
+    looks = Looks(s.look_range_m, s.look_spacing_m, s.looks_to_spend, s.gain_beams, FREE_THRESH)
+
+    def frontiers():
+        return detect(occ, RES, (0.0, 0.0), costmap, (15, 11), s,
+                      spent=looks.spent(occ.shape, RES, (0.0, 0.0)))
+
+    assert [f.centroid[0] for f in frontiers()] == pytest.approx([0.575, 4.325])
+    # (15, 11) is 0.75 m below the west pocket. A place's look is cast once the next place is
+    # known (the map then holds its scans), and only 0.25 m or more from the last place cast:
+    # (15, 11) is cast, (15, 13), (15, 14), (15, 15) are not (0.1-0.2 m from it). One look:
+    # the pocket could lie between two beams; it stays.
+    look_from(looks, occ, (0.0, 0.0), (15, 11), (15, 13), (15, 14), (15, 15), (15, 16))
+    assert len(frontiers()) == 2
+    # (15, 16), 0.25 m from (15, 11), is cast at the next place: two looks, and the west pocket
+    # is no frontier. The east one, 3.7 m off, beyond look_range_m (the mapper clears open
+    # space to 3.5 m), stays.
+    look_from(looks, occ, (0.0, 0.0), (15, 17))
+    (east,) = frontiers()
+    assert east.centroid[0] == pytest.approx(4.325) and east.reachable
+    # The count is kept in map-frame cells: the grid grown by 10 columns west and 5 rows south
+    # (origin 0.5 m west, 0.25 m south) spends the same cells.
+    grown = np.full((45, 110), UNKNOWN, np.int8)
+    grown[5:, 10:] = occ
+    spent = looks.spent(grown.shape, RES, (-0.5, -0.25))
+    assert sorted(map(tuple, np.argwhere(spent).tolist())) == [(35, 20), (35, 21), (35, 22)]
+    # looks_to_spend 0 turns the rule off
+    off = Looks(s.look_range_m, s.look_spacing_m, 0, s.gain_beams, FREE_THRESH)
+    look_from(off, occ, (0.0, 0.0), (15, 11), (15, 17), (15, 23), (15, 29))
+    assert not off.spent(occ.shape, RES, (0.0, 0.0)).any()
+
+
+def test_a_frontier_cell_a_wall_hides_is_not_looked_at():
+    # The west pocket, looked at from a room beyond a wall: rays stop at the wall, nothing spent
+    occ = pocket_hall()
+    occ[3:30, 20] = WALL
+    s = FrontierSettings()
+    looks = Looks(s.look_range_m, s.look_spacing_m, s.looks_to_spend, s.gain_beams, FREE_THRESH)
+    look_from(looks, occ, (0.0, 0.0), (25, 25), (25, 31), (25, 37))
+    assert looks.counts == {}
+
+
 def test_no_frontiers_and_bad_input(burger_costmap_settings):
     occ = np.zeros((10, 10), np.int8)
     occ[0, :] = WALL
@@ -516,9 +612,10 @@ def test_no_frontiers_and_bad_input(burger_costmap_settings):
 
 def test_settings_validation():
     assert from_dict(FrontierSettings, {}, "test") == FrontierSettings()
-    for bad in ({"min_size_cells": 0}, {"max_cost": 253}, {"sensor_range_m": 0.0},
+    for bad in ({"min_size_cells": 0}, {"min_opening_cells": 0}, {"max_cost": 253}, {"sensor_range_m": 0.0},
                 {"extend_into_unknown_m": -0.1}, {"gain_beams": 0},
-                {"snap_radius_m": -1.0}):
+                {"snap_radius_m": -1.0}, {"look_range_m": 0.0}, {"look_spacing_m": -1.0},
+                {"looks_to_spend": -1}):
         with pytest.raises(ConfigError, match=next(iter(bad))):
             from_dict(FrontierSettings, bad, "test")
 

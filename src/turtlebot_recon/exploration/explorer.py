@@ -7,7 +7,8 @@ the end) for the node to carry out in order:
 - ``explore(ExploreInputs)``: the navigator's results for our goals (GoalBook success on
   arrival, failure on abort; retries, below), then, every ``cycle_period_s`` and at once when
   a goal ended, the explorer cycle: costmap from the latest map, the robot's cell,
-  ``frontiers.detect`` (past the goals tried so far: ``GoalBook.tried``), a ``Context``, the
+  ``frontiers.detect`` (past the goals tried so far: ``GoalBook.tried``, and the cells the
+  lidar looked at from where the robot has been and did not reveal: ``Looks``), a ``Context``, the
   strategy's choice (none: the supervisor's finish rule counts an empty cycle) and the
   GoalBook's bookkeeping (attempt on send; failure when an obstacle appears at the goal
   twice; failure + blacklist when the progress watchdog fires; drop when the goal's frontier
@@ -76,9 +77,11 @@ from ..planning import (INSCRIBED, LatticeSettings, escape_arcs, footprint_costm
 from ..planning.navigation import GOAL_UNREACHABLE
 from ..robot import RobotSpec
 from .context import Context, Motion
-from .frontiers import FrontierSettings, detect
+from ..mapping.map_io import FREE_THRESH
+from .frontiers import FrontierSettings, detect, find_frontier_cells
 from .goals import GoalBook, stands_for
 from .tag_search import TagSearch, View
+from .viewpoints import Looks
 
 Log = Callable[..., None]                          # log(level, msg, *args), logging.Logger.log's
 DEBUG, INFO = logging.DEBUG, logging.INFO          # INFO: the start, the tag search, the end;
@@ -258,6 +261,9 @@ class Explorer:
         half_width = robot.radius_m if robot.is_round else 0.5 * robot.footprint_width_m
         self.scan_half_width_m = half_width + settings.scan_margin_m   # for ScanClearance
         self.rng = np.random.default_rng(settings.seed)
+        fs = frontier_settings
+        self.looks = Looks(fs.look_range_m, fs.look_spacing_m, fs.looks_to_spend, fs.gain_beams,
+                           FREE_THRESH)
         self.ctx: Optional[Context] = None                  # the last cycle's view
         self.frontiers, self.choice = [], None
         self.cycles, self.goal_available = 0, True          # no detection yet: nothing says "done"
@@ -480,7 +486,10 @@ class Explorer:
         escapes = escape_arcs(occ, res, origin, self.robot, pose, self.lattice, self.body)
         field = lattice_cost_to_come(occ, res, origin, self.robot, pose, self.lattice,
                                      self.fs.snap_radius_m, escapes, self.s.field_turns_within_m)
-        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now))
+        self.looks.look(occ, find_frontier_cells(occ, FREE_THRESH, self.fs.min_opening_cells), res, origin,
+                        pose[:2])
+        frontiers = detect(occ, res, origin, costmap, cell, self.fs, field, self.book.tried(now),
+                           self.looks.spent(occ.shape, res, origin))
         ctx = Context(robot_xy=pose[:2], robot_yaw=pose[2], now_s=now, resolution=res, origin=origin,
                       occupancy=occ, costmap=costmap, cost_to_come=field,
                       visits=self._visits(occ.shape, origin, visits), rng=self.rng, max_cost=INSCRIBED - 1,

@@ -68,6 +68,8 @@ _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 @dataclass(frozen=True)
 class FrontierSettings:
     min_size_cells: int = 3             # smaller clusters are noise (seed 004)
+    min_opening_cells: int = 3          # a frontier borders free cells that lie in a free square
+                                        # this many cells across (find_frontier_cells); 1: any
     sensor_range_m: float = 3.5         # gain counts unknown cells within this range (LDS-01)
     gain_beams: int = 180               # rays cast per goal for the gain
     extend_into_unknown_m: float = 0.0  # push the representative point this far from the robot
@@ -76,11 +78,17 @@ class FrontierSettings:
     max_cost: int = 128                 # a goal cell's cost should be <= this (128: 0.135 m beyond
                                         # the inscribed band); if no such cell is near, any cell
                                         # below inscribed
+    look_range_m: float = 2.5           # an unknown cell looked at within this range ...
+    look_spacing_m: float = 0.25        # ... from this many places this far apart ...
+    looks_to_spend: int = 2             # ... is no frontier (viewpoints.Looks); 0: off
 
     def validate(self, src: str) -> None:
-        require(isinstance(self.min_size_cells, int) and self.min_size_cells >= 1, src,
-                "min_size_cells", "must be an integer >= 1")
-        positive(src, self, "sensor_range_m", "snap_radius_m")
+        for key in ("min_size_cells", "min_opening_cells"):
+            require(isinstance(getattr(self, key), int) and getattr(self, key) >= 1, src, key,
+                    "must be an integer >= 1")
+        positive(src, self, "sensor_range_m", "snap_radius_m", "look_range_m", "look_spacing_m")
+        require(isinstance(self.looks_to_spend, int) and self.looks_to_spend >= 0, src,
+                "looks_to_spend", "must be an integer >= 0 (0 turns the rule off)")
         require(isinstance(self.gain_beams, int) and self.gain_beams >= 1, src, "gain_beams",
                 "must be an integer >= 1")
         require(math.isfinite(self.extend_into_unknown_m) and self.extend_into_unknown_m >= 0,
@@ -115,16 +123,25 @@ class Frontier:
                 f"reachable={self.reachable})")
 
 
-def find_frontier_cells(occupancy: np.ndarray, free_threshold: int = FREE_THRESH) -> np.ndarray:
+def find_frontier_cells(occupancy: np.ndarray, free_threshold: int = FREE_THRESH,
+                        opening_cells: int = 1) -> np.ndarray:
     """Bool mask of the UNKNOWN cells (< 0) with at least one free (0..free_threshold) cell
     among their 8 neighbours (seed 004: convolve(free, 3x3 ones) > 0, AND unknown; its table
     says "> 1 free neighbour", but a single free neighbour already borders the unknown, and
     requiring two would miss the tip of a one-cell-wide free strip). Cells beyond the grid's
-    edge count as not free."""
+    edge count as not free.
+
+    opening_cells > 1: only free cells that lie in an all-free square of that many cells
+    across count (the free mask's morphological opening): a slit narrower than that in a
+    wall line (a cell of the wall's face that grazing rays cleared) or a stray free cell
+    shows nothing of what lies behind it, while a doorway or a slit the lidar looks through
+    keeps its frontier. 1: seed 004's rule."""
     occupancy = np.asarray(occupancy)
     if occupancy.ndim != 2:
         raise ValueError(f"find_frontier_cells: occupancy must be 2-D, got {occupancy.ndim}-D")
     free = (occupancy >= 0) & (occupancy <= free_threshold)
+    if opening_cells > 1:
+        free = ndimage.binary_opening(free, structure=np.ones((opening_cells,) * 2, dtype=bool))
     free_neighbours = ndimage.convolve(free.astype(np.uint8), _NEIGHBOURS, mode="constant", cval=0)
     return (occupancy < 0) & (free_neighbours > 0)
 
@@ -151,7 +168,8 @@ def cluster(mask: np.ndarray, min_size: int = 1) -> List[np.ndarray]:
 
 def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
            costmap: np.ndarray, robot_cell: Cell, settings: FrontierSettings = FrontierSettings(),
-           cost_to_come: Optional[np.ndarray] = None, tried: Tried = Tried()) -> List[Frontier]:
+           cost_to_come: Optional[np.ndarray] = None, tried: Tried = Tried(),
+           spent: Optional[np.ndarray] = None) -> List[Frontier]:
     """Frontiers of ``occupancy`` with goals, gains and path costs from ``robot_cell``.
 
     occupancy: int8 (rows, cols); resolution: m per cell; origin: (x, y[, yaw]) of cell
@@ -162,7 +180,8 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
     (inscribed, when it brushes a wall), that field starts from the nearest passable cell
     within ``snap_radius_m``; with none, every frontier is unreachable. tried: the goals
     reached so far (``GoalBook.tried``): a snapped goal in a tried disc gives way to a
-    viewpoint that sees what the reached goals did not (``viewpoints``).
+    viewpoint that sees what the reached goals did not (``viewpoints``). spent: bool (rows,
+    cols), cells that are no frontier however unknown (``Looks.spent``: looked at enough).
     """
     occupancy = np.asarray(occupancy)
     if occupancy.ndim != 2:
@@ -184,7 +203,12 @@ def detect(occupancy: np.ndarray, resolution: float, origin: Sequence[float],
             raise ValueError(f"detect: cost_to_come has shape {cost_to_come.shape}, occupancy "
                              f"{occupancy.shape}")
 
-    frontier = find_frontier_cells(occupancy)
+    frontier = find_frontier_cells(occupancy, opening_cells=settings.min_opening_cells)
+    if spent is not None:
+        if np.shape(spent) != occupancy.shape:
+            raise ValueError(f"detect: spent has shape {np.shape(spent)}, occupancy "
+                             f"{occupancy.shape}")
+        frontier &= ~np.asarray(spent, dtype=bool)
     clusters = cluster(frontier, settings.min_size_cells)
     if not clusters:
         return []
